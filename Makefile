@@ -1,0 +1,25 @@
+# sionnafmcw: the two commands of the README.
+#   make demo   runs the main job and writes its plots under out/
+#   make test   runs the test suite (the heavy `slow` cases: make test-slow)
+VENV ?= .venv
+PY := $(VENV)/bin/python
+PYTEST_ARGS ?=
+
+.PHONY: demo test test-slow setup clean
+
+$(VENV)/.installed: pyproject.toml scripts/setup.sh
+	VENV=$(VENV) bash scripts/setup.sh
+
+setup: $(VENV)/.installed
+
+demo: $(VENV)/.installed
+	$(PY) validation/point_targets.py --out out/point_targets
+
+test: $(VENV)/.installed
+	$(PY) -m pytest -m "not slow" -q $(PYTEST_ARGS)
+
+test-slow: $(VENV)/.installed
+	$(PY) -m pytest -m slow -q $(PYTEST_ARGS)
+
+clean:
+	rm -rf out .pytest_cache .hypothesis

@@ -1,0 +1,39 @@
+#!/usr/bin/env bash
+# Creates the simulator's virtual environment (.venv) and the system library it needs.
+#   - libLLVM >= 16 for Dr.Jit's LLVM backend (libLLVM-15 crashes it): installed with apt-get
+#     when we are root on Debian/Ubuntu, otherwise we stop and say what to install.
+#   - .venv with the package and its test extras.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+VENV=${VENV:-.venv}
+PYTHON=${PYTHON:-python3}
+
+have_llvm() {
+  if [ -n "${DRJIT_LIBLLVM_PATH:-}" ] && [ -f "$DRJIT_LIBLLVM_PATH" ]; then return 0; fi
+  for f in /usr/lib/*/libLLVM-1[6-9]*.so* /usr/lib/*/libLLVM-[2-9][0-9]*.so* /usr/lib/*/libLLVM.so.1[6-9]* \
+           /usr/lib/*/libLLVM.so.[2-9][0-9]* /usr/lib64/libLLVM-1[6-9]*.so* /usr/lib/libLLVM-1[6-9]*.so*; do
+    [ -f "$f" ] && return 0
+  done
+  return 1
+}
+
+if ! have_llvm; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup: installing libllvm19 (Dr.Jit needs libLLVM >= 16)"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq libllvm19 >/dev/null
+  else
+    echo "setup: Dr.Jit's LLVM backend needs libLLVM >= 16 and none was found." >&2
+    echo "       Install one (Debian/Ubuntu: sudo apt-get install -y libllvm19; macOS: brew install llvm)" >&2
+    echo "       or set DRJIT_LIBLLVM_PATH to a libLLVM.so of version >= 16, then run this again." >&2
+    exit 1
+  fi
+fi
+
+if [ ! -x "$VENV/bin/python" ]; then
+  "$PYTHON" -m venv "$VENV"
+fi
+"$VENV/bin/python" -m pip install -q --upgrade pip
+"$VENV/bin/python" -m pip install -q -e ".[test]"
+touch "$VENV/.installed"
+echo "setup: $VENV ready"

@@ -1,0 +1,522 @@
+r"""Path engine: per-element echoes of an animation frame from Sionna RT's path solver.
+
+One :class:`~sionna.rt.Transmitter` and one :class:`~sionna.rt.Receiver` sit at the radar pose and
+carry the radar's exact element layout (a custom :class:`~sionna.rt.AntennaArray` with the
+element positions of :class:`~sionna.radar.RadarConfig`, pattern ``radar.antenna_pattern``,
+vertical polarisation). The solver runs with ``synthetic_array=False``: every Tx element is a
+source and every Rx element a target, so each path has its own gain, delay and Doppler per
+element pair, with spherical wavefronts and no far-field approximation across the array.
+
+Conventions and choices
+-----------------------
+* **Orientation**: the radar pose is Sionna's ``(yaw, pitch, roll)`` (rad) applied to the radar
+  frame (boresight local +x, azimuth along local y, elevation along local z). The element
+  positions of ``RadarConfig`` are in that frame; Sionna rotates them with the same orientation.
+* **No direct coupling**: the Tx and Rx elements are millimetres apart and Sionna drops segments
+  shorter than 1 cm, so the solver runs with ``los=False``; Tx-Rx leakage is *not* modelled by
+  this engine (add it on its own if wanted).
+* **Labels**: each contribution is labelled with the object name of its *first* interaction (the
+  object the transmitted wave hits first) by default. ``label="last"`` takes the last interaction
+  (the object the receiver sees), ``label="moving"`` the first interaction on an object that moves
+  in that frame (manifest or vertex velocity), falling back to the first. For single-bounce paths
+  all three agree. Padding entries have the label ``""``.
+* **Doppler**: rigid objects use Sionna's per-object velocity (the manifest velocity of the frame).
+  For a mesh whose PLY carries per-vertex velocities ``vx, vy, vz``, Sionna's velocity of that
+  object is set to zero and the engine adds, for every interaction on it,
+  :math:`\mathbf v(\mathbf p)\cdot(\hat{\mathbf k}_{out} - \hat{\mathbf k}_{in})/\lambda` with
+  :math:`\mathbf v(\mathbf p)` interpolated barycentrically at the interaction point and
+  :math:`\lambda = c/f_c` -- Sionna's own formula, so a rigid field reproduces Sionna's value, and
+  the sign is Sionna's (positive approaching).
+* **No recompilation**: the scene is loaded once per animation (``merge_shapes=False`` so moving
+  meshes stay separate objects); each frame writes the vertex positions of the meshes whose PLY
+  changed through the Mitsuba scene parameters and the object velocities as parameter updates,
+  with a fixed seed. The engine takes the solver's path buffer directly instead of building
+  Sionna's ``Paths`` tensors (whose kernels bake the per-frame path count in as a constant and
+  would recompile whenever it changes) and scatters it into per-element arrays with numpy. After
+  the first two frames no kernel is compiled (:attr:`PathEngine.last_stats`).
+
+Defaults (indoor 77 GHz radar)
+------------------------------
+``max_depth=2``: the target echo (one bounce) and the target-floor/wall multipath (two bounces),
+the multipath that matters for an indoor radar; a third bounce costs about 50 % more time for
+echoes tens of dB weaker. ``samples_per_src=100_000`` rays per Tx element: about 800 rays on a
+person at 3 m (0.5 x 1.7 m), enough to find the specular facets of a 10k-triangle body, at
+about 0.1 s per frame on two CPU cores. Specular and diffuse reflection on (diffuse paths only
+carry energy on materials with a ``scattering_coefficient``), refraction off (through-wall paths
+at 77 GHz are negligible, and a closed body is not a thin slab), diffraction off (first order
+only in Sionna, and weak at millimetre waves). ``seed=1`` fixed, so a static scene gives the
+same paths every frame and nothing recompiles.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._llvm import configure_llvm
+
+configure_llvm()
+
+import drjit as dr  # noqa: E402
+import mitsuba as mi  # noqa: E402
+from sionna.rt import AntennaArray, PathSolver, Receiver, Transmitter, load_scene  # noqa: E402
+from sionna.rt.antenna_pattern import antenna_pattern_registry  # noqa: E402
+from sionna.rt.constants import INVALID_SHAPE, InteractionType  # noqa: E402
+
+from ..animation import Animation, AnimationError, RadarPose  # noqa: E402
+from ..constants import SPEED_OF_LIGHT  # noqa: E402
+from ..echoes import Echoes  # noqa: E402
+from ..materials import apply_custom_materials, check_scene_materials  # noqa: E402
+
+
+class PathEngineError(ValueError):
+    """The path engine cannot run this animation / radar combination; the message says why."""
+
+
+@dataclass
+class FrameStats:
+    """What one :meth:`PathEngine.echoes` call did."""
+
+    frame: int
+    seconds: float
+    num_paths: int
+    kernels_launched: int
+    kernels_compiled: int
+    new_kernel_hashes: int
+    reloaded: bool
+
+
+@dataclass
+class _State:
+    key: tuple
+    scene: object
+    tx: object
+    rx: object
+    params: object
+    names_by_id: dict
+    shape_ids: dict               # name -> mitsuba shape id
+    loaded_files: dict            # name -> (filename, mtime) currently written into the scene
+    faces: dict                   # name -> faces [F,3] (int64)
+    vertices: dict                # name -> world vertices [V,3] of the current frame (float64)
+    vertex_velocity: dict         # name -> [V,3] or None for the current frame
+    velocities: dict = field(default_factory=dict)  # name -> velocity currently set in Sionna
+    pose: tuple | None = None
+
+
+def _pose_key(pose: RadarPose) -> tuple:
+    return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
+
+
+class PathEngine:
+    """Sionna RT path solver turned into per-element radar echoes.
+
+    Parameters
+    ----------
+    max_depth : int
+        Maximum number of interactions per path.
+    samples_per_src : int
+        Rays shot per Tx element.
+    max_num_paths_per_src : int
+        Candidate buffer size per Tx element (Sionna's default).
+    diffuse, specular, refraction, diffraction : bool
+        Interaction types (see the module docstring for the defaults).
+    seed : int
+        Solver seed, fixed across frames.
+    vertex_doppler : bool
+        Use per-vertex velocities from the PLYs where present (else Sionna's per-object velocity).
+    label : str
+        ``"first"``, ``"last"`` or ``"moving"`` (see the module docstring).
+    track_kernels : bool
+        Record Dr.Jit kernel launches per frame in :attr:`last_stats` / :attr:`stats`.
+    """
+
+    LABELS = ("first", "last", "moving")
+
+    def __init__(self, max_depth: int = 2, samples_per_src: int = 100_000, max_num_paths_per_src: int = 1_000_000,
+                 diffuse: bool = True, specular: bool = True, refraction: bool = False, diffraction: bool = False,
+                 seed: int = 1, vertex_doppler: bool = True, label: str = "first", track_kernels: bool = True):
+        if label not in self.LABELS:
+            raise PathEngineError(f"PathEngine: label={label!r} is unknown; choose one of {', '.join(self.LABELS)}")
+        for name, value in (("max_depth", max_depth), ("samples_per_src", samples_per_src),
+                            ("max_num_paths_per_src", max_num_paths_per_src), ("seed", seed)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < (1 if name != "seed" and name != "max_depth" else 0):
+                raise PathEngineError(f"PathEngine: {name} must be a non-negative integer, got {value!r}")
+        if max_depth < 1:
+            raise PathEngineError("PathEngine: max_depth must be >= 1 (with los=False a depth-0 radar sees nothing)")
+        self.max_depth = int(max_depth)
+        self.samples_per_src = int(samples_per_src)
+        self.max_num_paths_per_src = int(max_num_paths_per_src)
+        self.diffuse = bool(diffuse)
+        self.specular = bool(specular)
+        self.refraction = bool(refraction)
+        self.diffraction = bool(diffraction)
+        self.seed = int(seed)
+        self.vertex_doppler = bool(vertex_doppler)
+        self.label = label
+        self.track_kernels = bool(track_kernels)
+        self._solver = PathSolver()
+        self._state: _State | None = None
+        self._seen_hashes: set = set()
+        self.stats: list[FrameStats] = []
+
+    # ------------------------------------------------------------------ description
+    def settings(self) -> dict:
+        """The engine settings as a plain dict (for run stores)."""
+        return {"engine": "path", "max_depth": self.max_depth, "samples_per_src": self.samples_per_src,
+                "max_num_paths_per_src": self.max_num_paths_per_src, "diffuse": self.diffuse,
+                "specular": self.specular, "refraction": self.refraction, "diffraction": self.diffraction,
+                "seed": self.seed, "vertex_doppler": self.vertex_doppler, "label": self.label, "los": False,
+                "synthetic_array": False}
+
+    def __repr__(self) -> str:
+        return "PathEngine(" + ", ".join(f"{k}={v!r}" for k, v in self.settings().items() if k != "engine") + ")"
+
+    @property
+    def last_stats(self) -> FrameStats | None:
+        return self.stats[-1] if self.stats else None
+
+    @property
+    def scene(self):
+        """The Sionna scene currently loaded (None before the first frame)."""
+        return None if self._state is None else self._state.scene
+
+    # ------------------------------------------------------------------ set-up
+    def _load(self, animation: Animation, radar, key) -> _State:
+        animation.check_frequency(radar.fc)
+        xml = animation.frames[0].xml
+        old_level = mi.log_level()
+        mi.set_log_level(mi.LogLevel.Error)  # PLY vx/vy/vz properties make Mitsuba warn
+        try:
+            scene = load_scene(str(xml), merge_shapes=False)
+        except Exception as err:  # noqa: BLE001
+            raise PathEngineError(f"{xml}: Sionna could not load the scene: {err}") from err
+        finally:
+            mi.set_log_level(old_level)
+        apply_custom_materials(scene)
+        check_scene_materials(scene, radar.fc)
+        scene.frequency = radar.fc
+        wavelength = float(scene.wavelength[0]) if hasattr(scene.wavelength, "__len__") else float(scene.wavelength)
+        pattern = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
+        pattern_rx = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
+
+        def array(positions, pat):
+            p = np.asarray(positions, dtype=float) / wavelength
+            return AntennaArray(pat, mi.Point3f(mi.Float(p[:, 0]), mi.Float(p[:, 1]), mi.Float(p[:, 2])))
+
+        scene.tx_array = array(radar.tx_positions, pattern)
+        scene.rx_array = array(radar.rx_positions, pattern_rx)
+        tx = Transmitter("radar-tx", position=mi.Point3f(0, 0, 0), orientation=mi.Point3f(0, 0, 0))
+        rx = Receiver("radar-rx", position=mi.Point3f(0, 0, 0), orientation=mi.Point3f(0, 0, 0))
+        scene.add(tx)
+        scene.add(rx)
+
+        frame_scene = animation.scene(0)
+        names_by_id = {}
+        shape_ids = {}
+        for name, obj in scene.objects.items():
+            names_by_id[int(obj.object_id)] = name
+            shape_ids[name] = obj.mi_mesh.id()
+            obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
+        params = scene.mi_scene_params
+        state = _State(key, scene, tx, rx, params, names_by_id, shape_ids, {}, {}, {}, {})
+        # reference geometry: what Sionna loaded for frame 0, compared with our own PLY reading
+        for name, info in frame_scene.shapes.items():
+            if name not in shape_ids:
+                continue
+            if info.type != "ply":
+                continue
+            mesh = animation.mesh(0, name)
+            key_vp = f"{shape_ids[name]}.vertex_positions"
+            loaded = np.asarray(params[key_vp], dtype=float).reshape(-1, 3)
+            if loaded.shape != mesh.vertices.shape or not np.allclose(loaded, mesh.vertices, atol=1e-4, rtol=1e-5):
+                raise PathEngineError(
+                    f"{info.filename}: the vertices Mitsuba loaded differ from the PLY read by sionnafmcw "
+                    f"({loaded.shape[0]} vs {mesh.vertices.shape[0]} vertices); cannot update this mesh per frame"
+                )
+            faces = np.asarray(params[f"{shape_ids[name]}.faces"], dtype=np.int64).reshape(-1, 3)
+            state.faces[name] = faces
+            state.vertices[name] = mesh.vertices
+            state.vertex_velocity[name] = mesh.vertex_velocities
+            state.loaded_files[name] = (info.filename, info.filename.stat().st_mtime)
+        return state
+
+    def _update_geometry(self, animation: Animation, frame: int, state: _State) -> None:
+        fs = animation.scene(frame)
+        missing = sorted(set(state.shape_ids) - set(fs.shapes))
+        extra = sorted(set(fs.shapes) - set(state.shape_ids))
+        if missing or extra:
+            raise PathEngineError(
+                f"{fs.xml}: frame {frame} has a different set of shapes than frame 0 "
+                f"(missing: {missing or 'none'}, new: {extra or 'none'}); the engine keeps one scene per animation"
+            )
+        changed = False
+        for name, info in fs.shapes.items():
+            if info.type != "ply":
+                continue
+            stamp = (info.filename, info.filename.stat().st_mtime, tuple(info.to_world.ravel()))
+            if state.loaded_files.get(name) == stamp:
+                continue
+            mesh = animation.mesh(frame, name)
+            if mesh.vertices.shape != state.vertices[name].shape:
+                raise PathEngineError(
+                    f"{info.filename}: mesh {name!r} has {mesh.vertices.shape[0]} vertices in frame {frame} but "
+                    f"{state.vertices[name].shape[0]} in frame 0; per-frame meshes must keep their topology"
+                )
+            if mesh.faces.shape != state.faces[name].shape or not np.array_equal(mesh.faces, state.faces[name]):
+                raise PathEngineError(
+                    f"{info.filename}: mesh {name!r} changes its faces in frame {frame}; per-frame meshes must keep "
+                    "their topology (only vertex positions may change)"
+                )
+            state.params[f"{state.shape_ids[name]}.vertex_positions"] = mi.Float(
+                np.ascontiguousarray(mesh.vertices.ravel(), dtype=np.float32))
+            state.vertices[name] = mesh.vertices
+            state.vertex_velocity[name] = mesh.vertex_velocities
+            state.loaded_files[name] = stamp
+            changed = True
+        if changed:
+            state.params.update()
+            state.scene.scene_geometry_updated()
+
+    def _update_velocities(self, animation: Animation, frame: int, state: _State) -> dict:
+        """Set Sionna's object velocities; returns the velocity used per object (m/s)."""
+        used = {}
+        fr = animation.frame(frame)
+        for name, obj in state.scene.objects.items():
+            v = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
+            if self.vertex_doppler and state.vertex_velocity.get(name) is not None:
+                v = np.zeros(3)  # the per-vertex field replaces Sionna's rigid velocity
+            used[name] = v
+            if name not in state.velocities or not np.array_equal(state.velocities[name], v):
+                obj.velocity = mi.Vector3f(float(v[0]), float(v[1]), float(v[2]))
+                state.velocities[name] = v
+        return used
+
+    def _set_pose(self, state: _State, pose: RadarPose) -> None:
+        key = _pose_key(pose)
+        if state.pose == key:
+            return
+        p = [float(x) for x in pose.position]
+        o = [float(x) for x in pose.orientation]
+        for dev in (state.tx, state.rx):
+            dev.position = mi.Point3f(*p)
+            dev.orientation = mi.Point3f(*o)
+        state.pose = key
+
+    # ------------------------------------------------------------------ tracing
+    def _trace(self, scene):
+        """PathSolver.__call__ up to the path buffer (no ``Paths`` tensors, see the module docstring)."""
+        solver = self._solver
+        scene.all_set(radio_map=False)
+        src_positions, src_orientations, _, _ = scene.sources(False, True)
+        tgt_positions, tgt_orientations, _, _ = scene.targets(False, True)
+        src_patterns = scene.tx_array.antenna_pattern.patterns
+        tgt_patterns = scene.rx_array.antenna_pattern.patterns
+        dr.make_opaque(src_positions, tgt_positions, src_orientations, tgt_orientations)
+        buf = solver._candidate_generator(
+            mi_scene=scene.mi_scene, src_positions=src_positions, tgt_positions=tgt_positions,
+            samples_per_src=self.samples_per_src, max_num_paths_per_src=self.max_num_paths_per_src,
+            max_depth=self.max_depth, los=False, specular_reflection=self.specular,
+            diffuse_reflection=self.diffuse, refraction=self.refraction, diffraction=self.diffraction,
+            edge_diffraction=False, seed=self.seed)
+        buf.schedule()
+        dr.eval()
+        buf.shrink()
+        buf.detach_geometry()
+        buf = solver._image_method(scene=scene.mi_scene, paths=buf, src_positions=src_positions,
+                                   tgt_positions=tgt_positions, diffraction=self.diffraction,
+                                   diffraction_lit_region=True)
+        buf = solver._field_calculator(
+            wavelength=scene.wavelength, paths=buf, samples_per_src=self.samples_per_src,
+            diffraction=self.diffraction, src_positions=src_positions, tgt_positions=tgt_positions,
+            src_orientations=src_orientations, tgt_orientations=tgt_orientations,
+            src_antenna_patterns=src_patterns, tgt_antenna_patterns=tgt_patterns)
+        buf.discard_invalid()
+        return buf, src_positions, tgt_positions
+
+    # ------------------------------------------------------------------ public
+    def echoes(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> Echoes:
+        """Echoes ``[num_tx, num_rx, P]`` of ``frame`` (Tx in physical element order).
+
+        ``radar_pose`` overrides ``animation.radar_pose`` (a :class:`RadarPose` or a
+        ``(position, orientation)`` pair).
+        """
+        t0 = time.perf_counter()
+        pose = radar_pose if radar_pose is not None else animation.radar_pose
+        if pose is None:
+            raise PathEngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
+        if not isinstance(pose, RadarPose):
+            pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
+        radar.validate(frame_period=animation.frame_period)
+        key = (id(animation), str(animation.path), radar.to_json())
+        reloaded = False
+        if self._state is None or self._state.key != key:
+            self._state = None
+            self._state = self._load(animation, radar, key)
+            reloaded = True
+        state = self._state
+
+        if self.track_kernels:
+            dr.set_flag(dr.JitFlag.KernelHistory, True)
+            dr.kernel_history_clear()
+        try:
+            self._update_geometry(animation, frame, state)
+            self._set_pose(state, pose)
+            velocities = self._update_velocities(animation, frame, state)
+            buf, src_positions, tgt_positions = self._trace(state.scene)
+            echoes, num_paths = self._to_echoes(buf, src_positions, tgt_positions, state, velocities, radar)
+        finally:
+            if self.track_kernels:
+                history = dr.kernel_history()
+                dr.set_flag(dr.JitFlag.KernelHistory, False)
+        launched = compiled = new = 0
+        if self.track_kernels:
+            jit = [k for k in history if k["type"] == dr.KernelType.JIT]
+            launched = len(jit)
+            compiled = sum(1 for k in jit if not k.get("cache_hit", False))
+            hashes = {k["hash"] for k in jit}
+            new = len(hashes - self._seen_hashes)
+            self._seen_hashes |= hashes
+        self.stats.append(FrameStats(frame, time.perf_counter() - t0, num_paths, launched, compiled, new, reloaded))
+        return echoes
+
+    def __call__(self, animation: Animation, radar, frame: int, radar_pose=None) -> Echoes:
+        return self.echoes(animation, radar, frame, radar_pose)
+
+    def close(self) -> None:
+        """Drop the loaded scene."""
+        self._state = None
+
+    # ------------------------------------------------------------------ buffer -> Echoes
+    def _to_echoes(self, buf, src_positions, tgt_positions, state: _State, velocities: dict, radar):
+        m_tx, n_rx = radar.num_tx, radar.num_rx
+        num = int(buf.buffer_size)
+        if num == 0:
+            e = Echoes.empty(m_tx, n_rx)
+            e.labels = np.zeros((m_tx, n_rx, 0), dtype=object)
+            return e, 0
+        a = buf.a[0][0]
+        arrays = [buf.source_indices, buf.target_indices, dr.real(a), dr.imag(a), buf.tau, buf.doppler,
+                  buf.shapes, buf.interaction_types, buf.primitives, buf.vertices_x, buf.vertices_y,
+                  buf.vertices_z, src_positions, tgt_positions]
+        dr.eval(*arrays)
+        src = buf.source_indices.numpy().astype(np.int64)
+        tgt = buf.target_indices.numpy().astype(np.int64)
+        gain = dr.real(a).numpy().astype(np.float64) + 1j * dr.imag(a).numpy().astype(np.float64)
+        tau = buf.tau.numpy().astype(np.float64)
+        doppler = buf.doppler.numpy().astype(np.float64)
+        depth = buf.depth_dim_size
+        shapes = np.asarray(buf.shapes.array.numpy(), dtype=np.int64).reshape(num, depth)
+        types = np.asarray(buf.interaction_types.array.numpy(), dtype=np.int64).reshape(num, depth)
+        valid_int = (types != InteractionType.NONE) & (shapes != int(INVALID_SHAPE))
+
+        # --- per-vertex-velocity Doppler
+        vv_names = [n for n, v in state.vertex_velocity.items() if v is not None] if self.vertex_doppler else []
+        if vv_names:
+            prims = np.asarray(buf.primitives.array.numpy(), dtype=np.int64).reshape(num, depth)
+            verts = np.stack([np.asarray(buf.vertices_x.array.numpy(), dtype=np.float64),
+                              np.asarray(buf.vertices_y.array.numpy(), dtype=np.float64),
+                              np.asarray(buf.vertices_z.array.numpy(), dtype=np.float64)], axis=-1).reshape(num, depth, 3)
+            src_pos = np.stack([src_positions.x.numpy(), src_positions.y.numpy(), src_positions.z.numpy()], -1)
+            tgt_pos = np.stack([tgt_positions.x.numpy(), tgt_positions.y.numpy(), tgt_positions.z.numpy()], -1)
+            doppler = doppler + self._vertex_doppler(src_pos[src].astype(float), tgt_pos[tgt].astype(float), verts,
+                                                     valid_int, shapes, prims, state, vv_names,
+                                                     SPEED_OF_LIGHT / radar.fc)
+
+        # --- labels
+        id_list = sorted(state.names_by_id)
+        lut_ids = np.array(id_list, dtype=np.int64)
+        lut_names = np.array([state.names_by_id[i] for i in id_list], dtype=object)
+        pos = np.searchsorted(lut_ids, shapes)
+        pos = np.clip(pos, 0, len(lut_ids) - 1)
+        found = valid_int & (lut_ids[pos] == shapes)
+        per_int = np.where(found, lut_names[pos], "")
+        n_int = valid_int.sum(axis=1)
+        rows = np.arange(num)
+        first = per_int[:, 0]
+        last = per_int[rows, np.maximum(n_int - 1, 0)]
+        if self.label == "first":
+            labels = first
+        elif self.label == "last":
+            labels = last
+        else:
+            moving = {n for n, v in velocities.items() if np.any(v != 0)}
+            moving |= {n for n in vv_names if np.any(state.vertex_velocity[n] != 0)}
+            is_moving = np.vectorize(lambda s: s in moving, otypes=[bool])(per_int) & found
+            has = is_moving.any(axis=1)
+            idx = np.argmax(is_moving, axis=1)
+            labels = np.where(has, per_int[rows, idx], first)
+
+        # --- scatter into [num_tx, num_rx, P]
+        link = src * n_rx + tgt
+        order = np.argsort(link, kind="stable")
+        link_sorted = link[order]
+        counts = np.bincount(link, minlength=m_tx * n_rx)
+        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+        rank = np.empty(num, dtype=np.int64)
+        rank[order] = np.arange(num) - starts[link_sorted]
+        p_max = int(counts.max())
+        shape = (m_tx, n_rx, p_max)
+        out_a = np.zeros(shape, dtype=np.complex128)
+        out_tau = np.zeros(shape)
+        out_dop = np.zeros(shape)
+        out_lab = np.full(shape, "", dtype=object)
+        out_a[src, tgt, rank] = gain
+        out_tau[src, tgt, rank] = tau
+        out_dop[src, tgt, rank] = doppler
+        out_lab[src, tgt, rank] = labels
+        return Echoes(out_a, out_tau, out_dop, out_lab), num
+
+    @staticmethod
+    def _vertex_doppler(src_pos, tgt_pos, verts, valid_int, shapes, prims, state: _State, vv_names, wavelength):
+        """Sum over interactions on meshes with vertex velocities of v(p).(k_out - k_in)/lambda (Hz)."""
+        num, depth, _ = verts.shape
+        n_int = valid_int.sum(axis=1)
+        # polyline: src, v_1..v_d, tgt (padded with the target after the last interaction)
+        pts = np.empty((num, depth + 2, 3))
+        pts[:, 0] = src_pos
+        pts[:, 1:depth + 1] = verts
+        for d in range(depth):
+            pad = n_int <= d
+            pts[pad, d + 1] = tgt_pos[pad]
+        pts[:, depth + 1] = tgt_pos
+        seg = np.diff(pts, axis=1)
+        norm = np.linalg.norm(seg, axis=-1, keepdims=True)
+        k = np.divide(seg, norm, out=np.zeros_like(seg), where=norm > 0)
+        extra = np.zeros(num)
+        ids = {int(obj.object_id): name for name, obj in state.scene.objects.items() if name in vv_names}
+        for d in range(depth):
+            k_in, k_out = k[:, d], k[:, d + 1]
+            for oid, name in ids.items():
+                sel = valid_int[:, d] & (shapes[:, d] == oid)
+                if not np.any(sel):
+                    continue
+                faces = state.faces[name][prims[sel, d]]
+                vpos = state.vertices[name]
+                vvel = state.vertex_velocity[name]
+                w = _barycentric(verts[sel, d], vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]])
+                v = (w[:, 0:1] * vvel[faces[:, 0]] + w[:, 1:2] * vvel[faces[:, 1]] + w[:, 2:3] * vvel[faces[:, 2]])
+                extra[sel] += np.einsum("ij,ij->i", v, k_out[sel] - k_in[sel]) / wavelength
+        return extra
+
+
+def _barycentric(p, a, b, c) -> np.ndarray:
+    """Barycentric weights ``[N, 3]`` of points ``p`` in triangles ``(a, b, c)`` (clipped to the triangle)."""
+    v0, v1, v2 = b - a, c - a, p - a
+    d00 = np.einsum("ij,ij->i", v0, v0)
+    d01 = np.einsum("ij,ij->i", v0, v1)
+    d11 = np.einsum("ij,ij->i", v1, v1)
+    d20 = np.einsum("ij,ij->i", v2, v0)
+    d21 = np.einsum("ij,ij->i", v2, v1)
+    den = d00 * d11 - d01 * d01
+    den = np.where(den == 0, 1.0, den)
+    v = (d11 * d20 - d01 * d21) / den
+    w = (d00 * d21 - d01 * d20) / den
+    bary = np.stack([1.0 - v - w, v, w], axis=-1)
+    bary = np.clip(bary, 0.0, 1.0)
+    return bary / bary.sum(axis=1, keepdims=True)
+
+
+__all__ = ["FrameStats", "PathEngine", "PathEngineError"]

@@ -1,0 +1,73 @@
+r"""TDM-MIMO FMCW beat synthesis: :class:`~sionnafmcw.Echoes` -> IF cube.
+
+:func:`synthesize` evaluates, for every chirp :math:`l`, Tx :math:`m`, Rx :math:`n` and sample
+:math:`k` (NOTES section 2),
+
+.. math::
+    x_{lmnk} = \sqrt{P_t}\sum_p \bar a_{mnp}\,
+      e^{j2\pi(f_c\tau_{mnp} + \mu\tau_{mnp} t_k - \mu\tau_{mnp}^2/2)} + w_{lmnk},
+    \qquad \tau_{mnp} = \tau_{0,mnp} - \frac{f_{D,mnp}}{f_c}\,(s_{lm} + t_k)
+
+with the exact TDM chirp start :math:`s_{lm} = (lM + q_m)T_c`, fast time
+:math:`t_k = t_{adc} + k/F_s`, carrier phase, beat frequency, Doppler, range migration inside
+the CPI, radar-equation power :math:`P_r = P_t|a|^2` and thermal noise :math:`w`
+(:mod:`~sionnafmcw.synthesis.noise`). Compared with eq. (1) of the reference paper this adds
+the transmit-time offset :math:`q_m T_c` of each Tx inside a TDM block and the carrier phase
+:math:`f_c\tau`.
+
+Two implementations: ``method="direct"`` (:mod:`.direct`, the reference sum) and
+``method="nufft"`` (:mod:`.nufft`, type-3 NUFFT, used everywhere). Gains are frozen at the
+CPI start: over a CPI :math:`T` a reflector at range :math:`R` changes :math:`|a|` by about
+:math:`2\dot R T/R` (8 % at 3 m, 4.5 m/s, 27 ms), which only affects Doppler sidelobes.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .direct import beat_direct
+from .noise import thermal_noise
+from .nufft import beat_nufft
+
+METHODS = ("nufft", "direct")
+
+
+def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=None,
+               method: str = "nufft") -> np.ndarray:
+    """IF cube ``[chirp, tx, rx, sample]`` (complex64, sqrt(W), tx in physical order) of one CPI.
+
+    Parameters
+    ----------
+    echoes : Echoes
+        Contributions at the CPI start ``frame_time``; shape must match the radar's array.
+    radar : RadarConfig
+    frame_time : float
+        CPI start :math:`t_n` (s) to which ``echoes`` refer; the chirp timing is relative to it,
+        so the cube itself depends only on the echoes.
+    noise : bool
+        Add receiver thermal noise :math:`k T_0 F F_s` per sample.
+    rng : numpy.random.Generator or int, optional
+        Noise source (a seed gives a reproducible cube).
+    method : {"nufft", "direct"}
+    """
+    if echoes.num_tx != radar.num_tx or echoes.num_rx != radar.num_rx:
+        raise ValueError(
+            f"synthesize: echoes are for {echoes.num_tx} Tx x {echoes.num_rx} Rx elements but the radar "
+            f"{radar.name!r} has {radar.num_tx} x {radar.num_rx}"
+        )
+    if not np.isfinite(frame_time):
+        raise ValueError(f"synthesize: frame_time must be finite, got {frame_time!r}")
+    if method == "nufft":
+        cube = beat_nufft(echoes, radar)
+    elif method == "direct":
+        cube = beat_direct(echoes, radar)
+    else:
+        raise ValueError(f"synthesize: method={method!r} is unknown; choose one of {', '.join(METHODS)}")
+    cube = cube.astype(np.complex64)
+    if noise:
+        rng = np.random.default_rng(rng)
+        cube += thermal_noise(cube.shape, radar, rng)
+    return cube
+
+
+__all__ = ["METHODS", "beat_direct", "beat_nufft", "synthesize", "thermal_noise"]
