@@ -16,8 +16,31 @@ from .constants import BOLTZMANN, SPEED_OF_LIGHT, T0  # noqa: E402
 from .echoes import Echoes  # noqa: E402
 from .radar import RadarConfig, RadarConfigError  # noqa: E402
 from .synthesis import synthesize  # noqa: E402
+from . import plots, processing  # noqa: E402
 
 __version__ = "0.1.0"
+
+# Heavy parts (Sionna RT, Mitsuba, Zarr) load on first use.
+_LAZY = {
+    "simulate": ("simulation", "simulate"),
+    "load_animation": ("animation", "load_animation"),
+    "Animation": ("animation", "Animation"),
+    "AnimationError": ("animation", "AnimationError"),
+    "PathEngine": ("engines.path", "PathEngine"),
+    "open_run": ("store", "open_run"),
+}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+
+        module, attribute = _LAZY[name]
+        value = getattr(importlib.import_module(f".{module}", __name__), attribute)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'sionnafmcw' has no attribute {name!r}")
+
 
 __all__ = [
     "BOLTZMANN",
@@ -30,4 +53,5 @@ __all__ = [
     "T0",
     "synthesize",
     "__version__",
+    *_LAZY,
 ]

@@ -43,6 +43,20 @@ def _half_wavelength(frequency: float) -> float:
     return SPEED_OF_LIGHT / frequency / 2.0
 
 
+#: Gap between the last Tx and the first Rx element, in wavelengths. The boards put the Rx and
+#: Tx patch rows side by side, never on the same spot; a constant Rx offset only moves the
+#: virtual array's phase centre (virtual positions are tx + rx), not its shape. It also keeps
+#: every Tx-Rx pair > 1 cm apart: retro-reflected paths (corners, dihedrals) pass within a
+#: fraction of the Tx-Rx spacing of the corner, and exactly co-located elements make their
+#: image-method path degenerate (zero-length segments through the corner).
+RX_ROW_OFFSET_WAVELENGTHS = 3.0
+
+
+def _rx_row(count: int, spacing: float, tx_span: float) -> np.ndarray:
+    start = tx_span + RX_ROW_OFFSET_WAVELENGTHS * 2 * spacing
+    return np.array([[0.0, start + n * spacing, 0.0] for n in range(count)])
+
+
 def _ti_three_tx_layout(design_frequency: float):
     r"""Element layout of the TI xWR1443BOOST / xWR1843BOOST / IWR6843ISK boards.
 
@@ -52,10 +66,10 @@ def _ti_three_tx_layout(design_frequency: float):
     (SWRU518, SWRU546): four receivers :math:`\lambda/2` apart, TX0 and TX2 :math:`2\lambda`
     apart in azimuth, TX1 between them and raised by :math:`\lambda/2`. We mirror TI's azimuth
     axis so that the virtual array grows along the radar's :math:`+y` and put the raised TX1 at
-    :math:`+z`.
+    :math:`+z`. The Rx row sits beside the Tx row (:data:`RX_ROW_OFFSET_WAVELENGTHS`).
     """
     d = _half_wavelength(design_frequency)
-    rx = np.array([[0.0, n * d, 0.0] for n in range(4)])
+    rx = _rx_row(4, d, tx_span=4 * d)
     tx = np.array([[0.0, 0.0, 0.0], [0.0, 2 * d, d], [0.0, 4 * d, 0.0]])
     return tx, rx
 
@@ -390,11 +404,12 @@ def preset_walk_77ghz() -> RadarConfig:
     60 MHz/us over a 25.6 us ADC window (1.54 GHz, 9.7 cm range bins), 128 samples at 5 Msps
     (12.5 m unambiguous range), 256 chirps per Tx with T_c = 35 us (CPI 26.9 ms < 1/24 s),
     unambiguous velocity 9.2 m/s (the circle walk peaks at 4.52 m/s) and 7.1 cm/s velocity bins.
-    The 12 virtual elements form a lambda/2 uniform linear array along +y.
+    The 12 virtual elements form a lambda/2 uniform linear array along +y; the Rx row sits
+    3 lambda past the last Tx.
     """
     d = _half_wavelength(77e9)
-    rx = np.array([[0.0, n * d, 0.0] for n in range(4)])
     tx = np.array([[0.0, 4 * d * m, 0.0] for m in range(3)])
+    rx = _rx_row(4, d, tx_span=8 * d)
     return RadarConfig(
         fc=77e9, slope=60e12, fs=5e6, num_samples=128, num_chirps=256,
         chirp_interval=35e-6, adc_start_time=4e-6, ramp_end_time=30e-6,
