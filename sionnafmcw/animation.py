@@ -83,18 +83,25 @@ class PlyData:
         v = self.elements["vertex"]
         return np.stack([v["x"], v["y"], v["z"]], axis=-1).astype(float)
 
-    @property
+    @functools.cached_property
     def faces(self) -> np.ndarray:
+        """Triangles ``[F, 3]`` (polygons fan-triangulated, as Mitsuba does)."""
         face = self.elements.get("face")
         if not face:
             return np.zeros((0, 3), dtype=np.int64)
         key = "vertex_indices" if "vertex_indices" in face else ("vertex_index" if "vertex_index" in face else None)
         if key is None:
             raise AnimationError(f"{self.path}: element 'face' has no vertex_indices list")
+        polys = face[key]
+        if isinstance(polys, np.ndarray) and polys.ndim == 2:
+            if polys.shape[1] < 3:
+                raise AnimationError(f"{self.path}: faces with fewer than 3 vertices")
+            fans = [polys[:, [0, k, k + 1]] for k in range(1, polys.shape[1] - 1)]
+            return np.stack(fans, axis=1).reshape(-1, 3).astype(np.int64)
         tris = []
-        for poly in face[key]:
+        for poly in polys:
             poly = np.asarray(poly, dtype=np.int64)
-            for k in range(1, len(poly) - 1):  # fan triangulation, as Mitsuba does
+            for k in range(1, len(poly) - 1):
                 tris.append((poly[0], poly[k], poly[k + 1]))
         return np.asarray(tris, dtype=np.int64).reshape(-1, 3)
 
@@ -179,7 +186,7 @@ def read_ply(path) -> PlyData:
                     else:
                         cols[name].append(float(tokens[t]))
                         t += 1
-            out[el.name] = {name: (cols[name] if isinstance(tp, tuple) else np.asarray(cols[name], dtype=tp))
+            out[el.name] = {name: (_stack_lists(cols[name]) if isinstance(tp, tuple) else np.asarray(cols[name], dtype=tp))
                             for name, tp in el.properties}
     else:
         order = "<" if fmt == "binary_little_endian" else ">"
@@ -229,10 +236,18 @@ def read_ply(path) -> PlyData:
                             raise AnimationError(f"{path}: truncated PLY in element '{el.name}'")
                         cols[name].append(np.frombuffer(data, dtype=order + tp, count=1, offset=pos)[0])
                         pos += size
-            out[el.name] = cols
+            out[el.name] = {name: (_stack_lists(col) if isinstance(dict(el.properties)[name], tuple)
+                                   else np.asarray(col)) for name, col in cols.items()}
     ply = PlyData(path, elements, out)
     _check_ply(ply)
     return ply
+
+
+def _stack_lists(lists):
+    """A list of index arrays as a 2-D array when they all have one length, else the list."""
+    if lists and all(len(x) == len(lists[0]) for x in lists):
+        return np.asarray(lists, dtype=np.int64).reshape(len(lists), -1)
+    return lists
 
 
 def _check_ply(ply: PlyData) -> None:
@@ -614,7 +629,7 @@ class Animation:
         return out
 
     def check_frequency(self, frequency: float) -> None:
-        """Raise :class:`~sionna.materials.MaterialFrequencyError` if a material has no model at ``frequency``."""
+        """Raise :class:`~sionnafmcw.materials.MaterialFrequencyError` if a material has no model at ``frequency``."""
         from .materials import check_material_frequency
 
         seen = set()

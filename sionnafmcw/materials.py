@@ -72,7 +72,6 @@ from ._llvm import configure_llvm
 
 configure_llvm()
 
-import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
 import sionna.rt  # noqa: E402,F401  (sets the Mitsuba variant and registers Sionna's plugins)
 from sionna.rt.constants import DEFAULT_THICKNESS  # noqa: E402

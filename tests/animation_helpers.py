@@ -47,15 +47,19 @@ def box_mesh(center, size):
 def write_moving_mesh_animation(root, mesh_fn, velocity, num_frames=3, fps=10.0, name="plate",
                                 radar_pose=((0, 0, 0), (0, 0, 0)), materials=None, material="mat-itu_metal",
                                 vertex_velocity_fn=None, static=None, binary=True, manifest_velocity=True,
-                                shared_first_mesh=False):
+                                extra_objects=()):
     """Write an animation where object ``name`` (mesh from ``mesh_fn(t)``) moves with ``velocity``.
 
-    ``mesh_fn(t) -> (vertices, faces)`` gives the mesh at time t; ``vertex_velocity_fn(t, vertices)``
-    optional per-vertex velocities; ``static``: list of (name, vertices, faces, material) written
-    once to meshes/ and referenced by every frame. Returns the directory.
+    ``mesh_fn(t) -> (vertices, faces)`` gives the mesh at time t; ``velocity`` is a 3-vector or a
+    function of t; ``vertex_velocity_fn(t, vertices)`` optional per-vertex velocities; ``static``:
+    list of (name, vertices, faces, material) written once to meshes/ and referenced by every frame;
+    ``extra_objects``: more moving objects as dicts with the keys name, mesh_fn, velocity and
+    optionally vertex_velocity_fn, material, manifest_velocity. Returns the directory.
     """
     root = Path(root)
     (root / "frames").mkdir(parents=True, exist_ok=True)
+    moving = [{"name": name, "mesh_fn": mesh_fn, "velocity": velocity, "vertex_velocity_fn": vertex_velocity_fn,
+               "material": material, "manifest_velocity": manifest_velocity}] + list(extra_objects)
     frames = []
     static_shapes = []
     for sname, sv, sf, smat in static or []:
@@ -63,12 +67,18 @@ def write_moving_mesh_animation(root, mesh_fn, velocity, num_frames=3, fps=10.0,
         static_shapes.append({"name": sname, "ply": f"../meshes/{sname}.ply", "material": smat})
     for i in range(num_frames):
         t = i / fps
-        v, f = mesh_fn(t)
-        vel = None if vertex_velocity_fn is None else vertex_velocity_fn(t, v)
-        write_ply(root / "meshes" / f"{name}_{i:04d}.ply", v, f, vertex_velocities=vel, binary=binary)
-        shapes = [{"name": name, "ply": f"../meshes/{name}_{i:04d}.ply", "material": material}] + static_shapes
-        (root / "frames" / f"{i:04d}.xml").write_text(scene_xml(shapes, materials or METAL))
-        objects = {name: velocity} if manifest_velocity else {}
+        shapes, objects = [], {}
+        for obj in moving:
+            v, f = obj["mesh_fn"](t)
+            vfn = obj.get("vertex_velocity_fn")
+            vel = None if vfn is None else vfn(t, v)
+            write_ply(root / "meshes" / f"{obj['name']}_{i:04d}.ply", v, f, vertex_velocities=vel, binary=binary)
+            shapes.append({"name": obj["name"], "ply": f"../meshes/{obj['name']}_{i:04d}.ply",
+                           "material": obj.get("material", material)})
+            if obj.get("manifest_velocity", True):
+                velocity_t = obj["velocity"](t) if callable(obj["velocity"]) else obj["velocity"]
+                objects[obj["name"]] = np.asarray(velocity_t, dtype=float)
+        (root / "frames" / f"{i:04d}.xml").write_text(scene_xml(shapes + static_shapes, materials or METAL))
         frames.append({"xml": f"frames/{i:04d}.xml", "objects": objects})
     write_animation(root, frames, fps, radar_pose)
     return root

@@ -19,8 +19,8 @@ from .cfar import CFARResult, ca_cfar_2d, ca_cfar_factor, cfar_footprint, os_cfa
 from .clutter import remove_static_clutter
 from .fast_time import range_axis, range_doppler_coupling, range_fft
 from .micro_doppler import DopplerTrack, MicroDopplerSpectrogram, doppler_time, micro_doppler_spectrogram
-from .mimo import (has_elevation_aperture, tdm_phase_compensation, uniform_azimuth_row, virtual_array,
-                   virtual_channels)
+from .mimo import (array_phase_centre, has_elevation_aperture, tdm_phase_compensation, uniform_azimuth_row,
+                   virtual_array, virtual_channels)
 from .peaks import interpolate_peak, local_maxima, parabolic_offset, uniform_axis_value
 from .point_cloud import PointCloud, detections_to_point_cloud
 from .rdmap import RangeDopplerMap, range_doppler, range_doppler_map
@@ -29,7 +29,7 @@ from .windows import window_weights
 
 __all__ = [
     "AngleSpectrum", "CFARResult", "DopplerTrack", "MicroDopplerSpectrogram", "PointCloud", "RangeAzimuthMap",
-    "RangeDopplerMap", "angle_fft", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
+    "RangeDopplerMap", "angle_fft", "array_phase_centre", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
     "detections_to_point_cloud", "doppler_fft", "doppler_time", "estimate_direction", "has_elevation_aperture",
     "interpolate_peak", "local_maxima", "micro_doppler_spectrogram", "os_cfar_2d", "os_cfar_factor",
     "parabolic_offset", "range_axis", "range_azimuth_map", "range_doppler", "range_doppler_coupling",

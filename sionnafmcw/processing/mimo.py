@@ -23,6 +23,18 @@ def virtual_array(radar) -> np.ndarray:
     return (radar.tx_positions[:, None, :] + radar.rx_positions[None, :, :]).reshape(-1, 3)
 
 
+def array_phase_centre(radar) -> np.ndarray:
+    r"""Point ranges are measured from: :math:`\mathbf c = \frac{1}{2MN}\sum_{m,n}(\mathbf t_m + \mathbf r_n)` (m, ``[3]``).
+
+    The beat delay of every pair is the bistatic half-sum :math:`(|\mathbf p - \mathbf t_m| +
+    |\mathbf p - \mathbf r_n|)/2 \approx |\mathbf p| - \tfrac12(\mathbf t_m + \mathbf r_n)\cdot\hat{\mathbf u}`;
+    summed over all channels the range peak sits at :math:`|\mathbf p - \mathbf c|` (first order).
+    With the Rx row beside the Tx row this is a centimetre or two off the radar origin, a sizeable
+    fraction of a range bin.
+    """
+    return virtual_array(radar).mean(axis=0) / 2.0
+
+
 def virtual_channels(x, tx_axis: int = 1) -> np.ndarray:
     """Merge the adjacent ``tx, rx`` axes of ``x`` (at ``tx_axis``, ``tx_axis + 1``) into one virtual axis (tx-major)."""
     x = np.asarray(x)
@@ -115,6 +127,6 @@ def tdm_phase_compensation(rd, radar, velocities, doppler_axis: int | None = 0, 
             raise ValueError(f"tdm_phase_compensation: {v.size} velocities for {x.shape[doppler_axis]} Doppler bins")
         vshape = [1] * x.ndim
         vshape[doppler_axis] = v.size
-        phase = (4.0 * np.pi / radar.center_wavelength) * v.reshape(vshape) * delay.reshape(shape)
+        phase = (-4.0 * np.pi / radar.center_wavelength) * v.reshape(vshape) * delay.reshape(shape)
     rot = np.exp(1j * phase).astype(np.result_type(x.dtype, np.complex64))
     return x * rot

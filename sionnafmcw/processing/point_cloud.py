@@ -12,8 +12,9 @@ Chain for one CPI:
    velocity, and its direction from the Bartlett maximum with exact element positions
    (:func:`estimate_direction`): azimuth always, elevation when the layout has an elevation
    aperture (otherwise elevation is taken as 0 for the coordinates and reported as ``None``);
-5. Cartesian position in the radar frame :math:`R\,\hat{\mathbf u}(\phi, \theta_e)` (boresight +x,
-   azimuth towards +y, elevation towards +z), at the CPI time of the range peak.
+5. Cartesian position in the radar frame :math:`\mathbf c + R\,\hat{\mathbf u}(\phi, \theta_e)`
+   (boresight +x, azimuth towards +y, elevation towards +z), at the CPI time of the range peak;
+   ranges are measured from the array phase centre :math:`\mathbf c` (:func:`array_phase_centre`).
 
 ``snr`` is :math:`10\log_{10}(P/\hat\sigma^2)` with the CFAR's local noise estimate.
 """
@@ -28,7 +29,7 @@ from ..echoes import target_direction
 from .angle import estimate_direction
 from .cfar import ca_cfar_2d, os_cfar_2d
 from .fast_time import range_axis, range_doppler_coupling
-from .mimo import has_elevation_aperture, tdm_phase_compensation, virtual_channels
+from .mimo import array_phase_centre, has_elevation_aperture, tdm_phase_compensation, virtual_channels
 from .peaks import interpolate_peak, local_maxima, uniform_axis_value
 from .rdmap import range_doppler
 from .slow_time import velocity_axis
@@ -38,7 +39,7 @@ from .slow_time import velocity_axis
 class PointCloud:
     """One CPI's detections, every array ``[point]``.
 
-    ``range`` (m), ``velocity`` (m/s, + receding), ``azimuth`` and ``elevation`` (rad;
+    ``range`` (m, from the array phase centre), ``velocity`` (m/s, + receding), ``azimuth`` and ``elevation`` (rad;
     ``elevation`` is ``None`` when the array cannot measure it), ``x, y, z`` (m, radar frame),
     ``power`` (range-Doppler map value), ``noise`` (CFAR estimate), ``snr`` (dB),
     ``doppler_index, range_index`` (map cell).
@@ -123,7 +124,7 @@ def detections_to_point_cloud(cube, radar, cfar: str = "ca", guard=(2, 2), train
         a, e, _ = estimate_direction(virtual_channels(snap, 0), radar, elevation=use_el)
         az[j] = a
         el[j] = 0.0 if e is None else e
-    xyz = rng[:, None] * target_direction(az, el) if di.size else np.zeros((0, 3))
+    xyz = array_phase_centre(radar) + rng[:, None] * target_direction(az, el) if di.size else np.zeros((0, 3))
     p, noise = power[di, ri], res.noise[di, ri]
     with np.errstate(divide="ignore"):
         snr = 10.0 * np.log10(p / noise)
