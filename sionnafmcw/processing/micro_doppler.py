@@ -35,7 +35,6 @@ from .clutter import remove_static_clutter
 from .fast_time import range_axis, range_fft
 from .peaks import interpolate_peak, uniform_axis_value
 from .rdmap import check_cube, range_doppler_map
-from .slow_time import velocity_axis
 from .windows import window_weights
 
 
