@@ -125,6 +125,23 @@ class Echoes:
         return tx_power * np.abs(self.a) ** 2
 
     @classmethod
+    def leakage(cls, radar, coupling_db: float) -> "Echoes":
+        r"""Direct Tx-to-Rx coupling (leakage) of every element pair, as explicit contributions.
+
+        The path engine does not model it (Sionna drops segments shorter than 1 cm and the radar
+        runs with ``los=False``). Each pair :math:`(m, n)` gets one contribution with
+        :math:`|a| = 10^{C/20}` (``coupling_db`` = :math:`C`, the power coupling, e.g. -30 dB on
+        TI boards), delay :math:`\|\mathbf t_m - \mathbf r_n\|/c` and zero Doppler: a static
+        tone near range zero, removed by static clutter removal. Label ``"leakage"``.
+        """
+        if not np.isfinite(coupling_db):
+            raise ValueError(f"Echoes.leakage: coupling_db must be finite, got {coupling_db!r}")
+        d = np.linalg.norm(radar.tx_positions[:, None, :] - radar.rx_positions[None, :, :], axis=-1)
+        shape = (radar.num_tx, radar.num_rx, 1)
+        a = np.full(shape, 10 ** (coupling_db / 20), dtype=complex)
+        return cls(a, (d / SPEED_OF_LIGHT)[..., None], np.zeros(shape), np.full(shape, "leakage"))
+
+    @classmethod
     def point_targets(cls, radar, ranges, radial_velocities, azimuths, elevations=0.0, rcs=1.0,
                       labels=None) -> "Echoes":
         """Ideal point targets in the radar frame (see the module docstring for the model).

@@ -60,7 +60,8 @@ def _frame_indices(frames, num_frames: int) -> list[int]:
 
 
 def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progress=True,
-             radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None):
+             radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None,
+             leakage_db: float | None = None):
     """Simulate ``frames`` of ``animation`` and write the run store ``out``; returns it as an xarray Dataset.
 
     Parameters
@@ -74,6 +75,7 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     seed : noise seed; frame ``n`` uses ``numpy.random.default_rng([seed, n])``
     noise : add receiver thermal noise
     engine_options : keyword arguments for the engine when ``engine`` is a name
+    leakage_db : direct Tx-Rx coupling (dB) added to every frame (:meth:`Echoes.leakage`); None: none
     """
     from .animation import Animation, load_animation
 
@@ -93,6 +95,7 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
         out, radar, animation.num_frames, names,
         attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
                "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
+               "leakage_db": leakage_db,
                "sionnafmcw_version": __version__},
     )
     done = store.done()
@@ -107,7 +110,8 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     for f in iterator:
         echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
         rng = np.random.default_rng([int(seed), int(f)])
-        cube = synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng)
+        cube = synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng,
+                          leakage_db=leakage_db)
         if names:
             positions_by_name = animation.object_positions(f, names)
             positions = np.array([positions_by_name[n] for n in names])

@@ -15,7 +15,7 @@ variable                   dimensions                               dtype
 =========================  =======================================  ===========
 
 Attributes: ``radar`` (``RadarConfig.to_dict()``), ``radar_pose``, ``engine`` (name and
-settings), ``scene``, ``seed``, ``noise``, ``sionnafmcw_version``.
+settings), ``scene``, ``seed``, ``noise``, ``leakage_db``, ``sionnafmcw_version``.
 
 Resumable and never half-written: ``iq`` has one chunk per frame, and ``frame_done[f]`` is set
 only after every array of frame ``f`` is written. Re-opening a store with the same settings

@@ -149,3 +149,19 @@ def test_input_errors_name_the_problem(small_radar):
         synthesize(echoes, wrong)
     with pytest.raises(ValueError, match="Echoes.tau"):
         Echoes(np.ones((1, 1, 2)), np.ones((1, 1, 3)), np.zeros((1, 1, 2)))
+
+
+def test_tx_rx_leakage_option(small_radar):
+    """Leakage: a static tone at the Tx-Rx distance with power P_t 10^(C/10) per channel, none by default."""
+    radar = small_radar
+    echoes = random_echoes(radar, 3, seed=2)
+    plain = synthesize(echoes, radar, noise=False)
+    leaky = synthesize(echoes, radar, noise=False, leakage_db=-30.0)
+    tone = leaky - plain
+    assert np.allclose(np.abs(tone) ** 2, radar.tx_power * 1e-3, rtol=1e-4)
+    # static: identical in every chirp of a channel
+    assert np.allclose(tone, tone[:1], atol=1e-6 * np.abs(tone).max())
+    # beat frequency mu * d / c for the Tx0-Rx0 distance d: phase step per sample
+    d = np.linalg.norm(radar.tx_positions[0] - radar.rx_positions[0])
+    step = np.angle(tone[0, 0, 0, 1:] / tone[0, 0, 0, :-1])
+    assert np.allclose(step, 2 * np.pi * radar.slope * d / SPEED_OF_LIGHT / radar.fs, atol=1e-4)

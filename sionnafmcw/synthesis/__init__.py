@@ -33,7 +33,7 @@ METHODS = ("nufft", "direct")
 
 
 def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=None,
-               method: str = "nufft") -> np.ndarray:
+               method: str = "nufft", leakage_db: float | None = None) -> np.ndarray:
     """IF cube ``[chirp, tx, rx, sample]`` (complex64, sqrt(W), tx in physical order) of one CPI.
 
     Parameters
@@ -49,12 +49,19 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
     rng : numpy.random.Generator or int, optional
         Noise source (a seed gives a reproducible cube).
     method : {"nufft", "direct"}
+    leakage_db : float, optional
+        Add direct Tx-Rx coupling of this power level (dB) to every channel
+        (:meth:`Echoes.leakage`); None (default) models none.
     """
     if echoes.num_tx != radar.num_tx or echoes.num_rx != radar.num_rx:
         raise ValueError(
             f"synthesize: echoes are for {echoes.num_tx} Tx x {echoes.num_rx} Rx elements but the radar "
             f"{radar.name!r} has {radar.num_tx} x {radar.num_rx}"
         )
+    if leakage_db is not None:
+        from ..echoes import Echoes
+
+        echoes = Echoes.concatenate([echoes, Echoes.leakage(radar, leakage_db)])
     if not np.isfinite(frame_time):
         raise ValueError(f"synthesize: frame_time must be finite, got {frame_time!r}")
     if method == "nufft":
