@@ -52,7 +52,7 @@ def analyse(radar, targets, seed=0):
 
     channels = radar.num_tx * radar.num_rx
     noise = np.median(rdmap.power) * channels / gamma(channels).median()
-    centre = 0.5 * (radar.tx_positions.mean(axis=0) + radar.rx_positions.mean(axis=0))
+    centre = processing.array_phase_centre(radar)
     t_centre = 0.5 * radar.cpi_duration
     rows = []
     for r, v, az, sigma in zip(ranges, speeds, azimuths, rcs):
