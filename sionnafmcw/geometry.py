@@ -37,9 +37,10 @@ def world_to_radar(points, position, orientation) -> np.ndarray:
 
 
 def phase_centre(radar, position, orientation) -> np.ndarray:
-    """World position of the virtual array's centroid, mean over (m, n) of (tx_m + rx_n) / 2."""
-    centre = 0.5 * (radar.tx_positions.mean(axis=0) + radar.rx_positions.mean(axis=0))
-    return radar_to_world(centre, position, orientation)
+    """World position of the virtual array's phase centre (:func:`~sionnafmcw.processing.array_phase_centre`)."""
+    from .processing.mimo import array_phase_centre
+
+    return radar_to_world(array_phase_centre(radar), position, orientation)
 
 
 def radial_velocity(positions, velocities, origin) -> np.ndarray:
