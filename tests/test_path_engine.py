@@ -265,6 +265,25 @@ def test_itu_material_outside_its_band_is_refused(tmp_path):
     assert echoes.num_contributions >= 1
 
 
+def test_millimetre_wave_itu_material_loads_at_the_carrier(tmp_path):
+    """``floorboard`` exists only at 50-100 GHz: Sionna must evaluate it at 77 GHz while loading."""
+    mats = {"mat-floor": ("itu-radio-material", {"type": "floorboard"})}
+    anim = load_animation(write_plate_animation(tmp_path / "floorboard", num_frames=1, size=(2.0, 2.0),
+                                                materials=mats, material="mat-floor"))
+    engine = PathEngine(samples_per_src=2000)
+    echoes = engine.echoes(anim, RADAR, 0)
+    eps = float(engine.scene.get("floor").relative_permittivity[0])
+    assert eps == pytest.approx(3.66, abs=0.01)  # ITU-R P.2040 floorboard, a = 3.66, b = 0
+    # normal incidence on the half-space: |a| / |a_metal| = |(1 - n) / (1 + n)| within the conductivity term
+    metal = PathEngine(samples_per_src=2000).echoes(load_animation(
+        write_plate_animation(tmp_path / "metal", num_frames=1, size=(2.0, 2.0))), RADAR, 0)
+    import sionna.rt.scene as sionna_scene
+    assert sionna_scene.DEFAULT_FREQUENCY == 3.5e9  # restored after loading
+    n = np.sqrt(eps - 1j * float(engine.scene.get("floor").conductivity[0]) / (2 * np.pi * RADAR.fc * 8.854187817e-12))
+    ratio = np.abs(echoes.a[..., 0]) / np.abs(metal.a[..., 0])
+    np.testing.assert_allclose(ratio, abs((1 - n) / (1 + n)), rtol=5e-3)
+
+
 def test_frames_must_keep_shapes_and_topology(tmp_path):
     floor_v, floor_f = plate_mesh((0, 0, -1.0), size=(4, 4), normal_axis=2)
     root = write_plate_animation(tmp_path / "p", num_frames=2, static=[("floor", floor_v, floor_f, "mat-itu_metal")])

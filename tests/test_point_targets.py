@@ -7,9 +7,6 @@ broadside); peak SNR within 0.5 dB of the radar equation (scalloping < 0.1 dB af
 range migration of at most half a bin costs < 0.2 dB).
 """
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -17,10 +14,7 @@ from hypothesis import strategies as st
 
 from sionnafmcw import Echoes, RadarConfig, processing, synthesize
 
-_spec = importlib.util.spec_from_file_location(
-    "point_targets_validation", Path(__file__).parents[1] / "validation" / "point_targets.py")
-point_targets = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(point_targets)
+from sionnafmcw.validation import point_targets
 
 RADAR = RadarConfig.preset("walk-77ghz").replace(num_chirps=64)
 

@@ -75,7 +75,7 @@ configure_llvm()
 
 import drjit as dr  # noqa: E402
 import mitsuba as mi  # noqa: E402
-from sionna.rt import AntennaArray, PathSolver, Receiver, Transmitter, load_scene  # noqa: E402
+from sionna.rt import AntennaArray, PathSolver, Receiver, Transmitter  # noqa: E402
 from sionna.rt.antenna_pattern import antenna_pattern_registry  # noqa: E402
 from sionna.rt.constants import INVALID_SHAPE, InteractionType  # noqa: E402
 import sionna.rt.path_solvers.image_method as _image_method  # noqa: E402
@@ -96,7 +96,7 @@ for _module in (_image_method, _candidate_generator, _deterministic):
 from ..animation import Animation, RadarPose  # noqa: E402
 from ..constants import SPEED_OF_LIGHT  # noqa: E402
 from ..echoes import Echoes  # noqa: E402
-from ..materials import apply_custom_materials, check_scene_materials  # noqa: E402
+from .scene_loading import SceneLoadError, load_radar_scene  # noqa: E402
 
 
 class PathEngineError(ValueError):
@@ -226,17 +226,10 @@ class PathEngine:
     def _load(self, animation: Animation, radar, key) -> _State:
         animation.check_frequency(radar.fc)
         xml = animation.frames[0].xml
-        old_level = mi.log_level()
-        mi.set_log_level(mi.LogLevel.Error)  # PLY vx/vy/vz properties make Mitsuba warn
         try:
-            scene = load_scene(str(xml), merge_shapes=False)
-        except Exception as err:  # noqa: BLE001
-            raise PathEngineError(f"{xml}: Sionna could not load the scene: {err}") from err
-        finally:
-            mi.set_log_level(old_level)
-        apply_custom_materials(scene)
-        check_scene_materials(scene, radar.fc)
-        scene.frequency = radar.fc
+            scene = load_radar_scene(xml, radar.fc)
+        except SceneLoadError as err:
+            raise PathEngineError(str(err)) from err.__cause__
         wavelength = float(scene.wavelength[0]) if hasattr(scene.wavelength, "__len__") else float(scene.wavelength)
         pattern = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
         pattern_rx = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
