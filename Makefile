@@ -10,15 +10,20 @@ PYTEST_ARGS ?=
 $(VENV)/.installed: pyproject.toml scripts/setup.sh
 	VENV=$(VENV) bash scripts/setup.sh
 
+# Blender as a Python module (bpy 4.5, needs numpy<2) for the Blender exporter and its tests:
+# its own environment, never .venv
+.venv-blender/.installed: scripts/setup_blender.sh
+	bash scripts/setup_blender.sh
+
 setup: $(VENV)/.installed
 
 demo: $(VENV)/.installed
 	$(PY) validation/point_targets.py --out out/point_targets
 
-test: $(VENV)/.installed
+test: $(VENV)/.installed .venv-blender/.installed
 	$(PY) -m pytest -m "not slow" -q $(PYTEST_ARGS)
 
-test-slow: $(VENV)/.installed
+test-slow: $(VENV)/.installed .venv-blender/.installed
 	$(PY) -m pytest -m slow -q $(PYTEST_ARGS)
 
 clean:

@@ -27,6 +27,7 @@ _LAZY = {
     "Animation": ("animation", "Animation"),
     "AnimationError": ("animation", "AnimationError"),
     "PathEngine": ("engines.path", "PathEngine"),
+    "PixelEngine": ("engines.pixel", "PixelEngine"),
     "open_run": ("store", "open_run"),
 }
 

@@ -21,7 +21,7 @@ from .radar import RadarConfig
 from .store import RunStore, open_run
 from .synthesis import synthesize
 
-ENGINES = ("path",)
+ENGINES = ("path", "pixel")
 
 
 def _resolve_radar(radar) -> RadarConfig:
@@ -44,6 +44,10 @@ def make_engine(engine, **options):
         from .engines.path import PathEngine
 
         return PathEngine(**options)
+    if engine == "pixel":
+        from .engines.pixel import PixelEngine
+
+        return PixelEngine(**options)
     raise ValueError(f"simulate: engine={engine!r} is unknown; choose one of {', '.join(ENGINES)}")
 
 
@@ -68,7 +72,7 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     ----------
     animation : Animation or path of an animation directory
     radar : RadarConfig, preset name or dict
-    engine : ``"path"`` or an engine object with ``echoes(animation, radar, frame, radar_pose=...)``
+    engine : ``"path"``, ``"pixel"`` or an engine object with ``echoes(animation, radar, frame, radar_pose=...)``
     out : path of the Zarr store; an existing store with the same settings is resumed
     frames : iterable of frame indices or a slice (default: all); the store always spans all frames
     radar_pose : RadarPose overriding the animation's
