@@ -1,5 +1,5 @@
 # sionnafmcw: the two commands of the README.
-#   make demo   runs the main job and writes its plots under out/
+#   make demo   the paper's walking person (circle walk) through the path engine; plots in out/circle_walk
 #   make test   runs the test suite (the heavy `slow` cases: make test-slow)
 VENV ?= .venv
 PY := $(VENV)/bin/python
@@ -18,7 +18,7 @@ $(VENV)/.installed: pyproject.toml scripts/setup.sh
 setup: $(VENV)/.installed
 
 demo: $(VENV)/.installed
-	$(PY) validation/point_targets.py --out out/point_targets
+	$(PY) validation/circle_walk.py --engine path --out out/circle_walk
 
 test: $(VENV)/.installed .venv-blender/.installed
 	$(PY) -m pytest -m "not slow" -q $(PYTEST_ARGS)

@@ -96,6 +96,7 @@ for _module in (_image_method, _candidate_generator, _deterministic):
 from ..animation import Animation, RadarPose  # noqa: E402
 from ..constants import SPEED_OF_LIGHT  # noqa: E402
 from ..echoes import Echoes  # noqa: E402
+from .frame_scene import FrameScene, barycentric_weights, interpolate, resolve_pose, track_kernels  # noqa: E402
 from .scene_loading import SceneLoadError, load_radar_scene  # noqa: E402
 
 
@@ -124,18 +125,16 @@ class FrameStats:
 @dataclass
 class _State:
     key: tuple
-    scene: object
+    geometry: FrameScene          # scene, parameters and per-object geometry of the current frame
     tx: object
     rx: object
-    params: object
     names_by_id: dict
-    shape_ids: dict               # name -> mitsuba shape id
-    loaded_files: dict            # name -> (filename, mtime) currently written into the scene
-    faces: dict                   # name -> faces [F,3] (int64)
-    vertices: dict                # name -> world vertices [V,3] of the current frame (float64)
-    vertex_velocity: dict         # name -> [V,3] or None for the current frame
     velocities: dict = field(default_factory=dict)  # name -> velocity currently set in Sionna
     pose: tuple | None = None
+
+    @property
+    def scene(self):
+        return self.geometry.scene
 
 
 def _pose_key(pose: RadarPose) -> tuple:
@@ -245,97 +244,15 @@ class PathEngine:
         scene.add(tx)
         scene.add(rx)
 
-        frame_scene = animation.scene(0)
         names_by_id = {}
-        shape_ids = {}
         for name, obj in scene.objects.items():
             names_by_id[int(obj.object_id)] = name
-            shape_ids[name] = obj.mi_mesh.id()
             obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
-        params = scene.mi_scene_params
-        state = _State(key, scene, tx, rx, params, names_by_id, shape_ids, {}, {}, {}, {})
-        # reference geometry: what Sionna loaded for frame 0, compared with our own PLY reading
-        for name, info in frame_scene.shapes.items():
-            if name not in shape_ids:
-                continue
-            if info.type != "ply":
-                state.loaded_files[name] = ("not-ply", tuple(info.to_world.ravel()))
-                continue
-            mesh = animation.mesh(0, name)
-            key_vp = f"{shape_ids[name]}.vertex_positions"
-            loaded = np.asarray(params[key_vp], dtype=float).reshape(-1, 3)
-            if loaded.shape != mesh.vertices.shape or not np.allclose(loaded, mesh.vertices, atol=1e-4, rtol=1e-5):
-                raise PathEngineError(
-                    f"{info.filename}: the vertices Mitsuba loaded differ from the PLY read by sionnafmcw "
-                    f"({loaded.shape[0]} vs {mesh.vertices.shape[0]} vertices); cannot update this mesh per frame"
-                )
-            faces = np.asarray(params[f"{shape_ids[name]}.faces"], dtype=np.int64).reshape(-1, 3)
-            if faces.shape != mesh.faces.shape or not np.array_equal(faces, mesh.faces):
-                raise PathEngineError(
-                    f"{info.filename}: the faces Mitsuba loaded differ from the PLY read by sionnafmcw; "
-                    "cannot interpolate vertex velocities on this mesh"
-                )
-            state.faces[name] = faces
-            state.vertices[name] = mesh.vertices
-            state.vertex_velocity[name] = mesh.vertex_velocities
-            state.loaded_files[name] = (info.filename, info.filename.stat().st_mtime, tuple(info.to_world.ravel()))
-        # Write the frame-0 vertices of the meshes that move once now, so that the kernels of a
-        # geometry update are compiled at load time rather than in frame 1.
-        dynamic = set()
-        for i in range(1, animation.num_frames):
-            for name, info in animation.scene(i).shapes.items():
-                first = frame_scene.shapes.get(name)
-                if first is not None and info.type == "ply" and (
-                        info.filename != first.filename or not np.array_equal(info.to_world, first.to_world)):
-                    dynamic.add(name)
-        for name in sorted(dynamic & set(state.vertices)):
-            params[f"{shape_ids[name]}.vertex_positions"] = mi.Float(
-                np.ascontiguousarray(state.vertices[name].ravel(), dtype=np.float32))
-        if dynamic:
-            params.update()
-        dr.eval()
-        return state
+        return _State(key, FrameScene.load(scene, animation, PathEngineError), tx, rx, names_by_id)
 
-    def _update_geometry(self, animation: Animation, frame: int, state: _State) -> None:
-        fs = animation.scene(frame)
-        missing = sorted(set(state.shape_ids) - set(fs.shapes))
-        extra = sorted(set(fs.shapes) - set(state.shape_ids))
-        if missing or extra:
-            raise PathEngineError(
-                f"{fs.xml}: frame {frame} has a different set of shapes than frame 0 "
-                f"(missing: {missing or 'none'}, new: {extra or 'none'}); the engine keeps one scene per animation"
-            )
-        changed = False
-        for name, info in fs.shapes.items():
-            if info.type != "ply":
-                if state.loaded_files.get(name) != ("not-ply", tuple(info.to_world.ravel())):
-                    raise PathEngineError(
-                        f"{fs.xml}: shape {info.id!r} of type {info.type!r} changes its transform in frame {frame}; "
-                        "only PLY meshes can move (export moving objects as PLY)"
-                    )
-                continue
-            stamp = (info.filename, info.filename.stat().st_mtime, tuple(info.to_world.ravel()))
-            if state.loaded_files.get(name) == stamp:
-                continue
-            mesh = animation.mesh(frame, name)
-            if mesh.vertices.shape != state.vertices[name].shape:
-                raise PathEngineError(
-                    f"{info.filename}: mesh {name!r} has {mesh.vertices.shape[0]} vertices in frame {frame} but "
-                    f"{state.vertices[name].shape[0]} in frame 0; per-frame meshes must keep their topology"
-                )
-            if mesh.faces.shape != state.faces[name].shape or not np.array_equal(mesh.faces, state.faces[name]):
-                raise PathEngineError(
-                    f"{info.filename}: mesh {name!r} changes its faces in frame {frame}; per-frame meshes must keep "
-                    "their topology (only vertex positions may change)"
-                )
-            state.params[f"{state.shape_ids[name]}.vertex_positions"] = mi.Float(
-                np.ascontiguousarray(mesh.vertices.ravel(), dtype=np.float32))
-            state.vertices[name] = mesh.vertices
-            state.vertex_velocity[name] = mesh.vertex_velocities
-            state.loaded_files[name] = stamp
-            changed = True
-        if changed:
-            state.params.update()
+    @staticmethod
+    def _update_geometry(animation: Animation, frame: int, state: _State) -> None:
+        if state.geometry.update_geometry(animation, frame):
             state.scene.scene_geometry_updated()
 
     def _update_velocities(self, animation: Animation, frame: int, state: _State) -> dict:
@@ -344,7 +261,7 @@ class PathEngine:
         fr = animation.frame(frame)
         for name, obj in state.scene.objects.items():
             v = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
-            if self.vertex_doppler and state.vertex_velocity.get(name) is not None:
+            if self.vertex_doppler and state.geometry.vertex_velocity.get(name) is not None:
                 v = np.zeros(3)  # the per-vertex field replaces Sionna's rigid velocity
             used[name] = v
             if name not in state.velocities or not np.array_equal(state.velocities[name], v):
@@ -406,19 +323,11 @@ class PathEngine:
         ``(position, orientation)`` pair).
         """
         t0 = time.perf_counter()
-        pose = radar_pose if radar_pose is not None else animation.radar_pose
-        if pose is None:
-            raise PathEngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
-        if not isinstance(pose, RadarPose):
-            pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
+        pose = resolve_pose(animation, radar_pose, PathEngineError)
         radar.validate(frame_period=animation.frame_period)
         key = (id(animation), str(animation.path), radar.to_json())
         reloaded = False
-        history_flag = dr.flag(dr.JitFlag.KernelHistory)
-        if self.track_kernels:
-            dr.set_flag(dr.JitFlag.KernelHistory, True)
-            dr.kernel_history_clear()
-        try:
+        with track_kernels(self.track_kernels, self._seen_hashes) as kernels:
             if self._state is None or self._state.key != key:
                 self._state = None
                 self._state = self._load(animation, radar, key)
@@ -429,19 +338,8 @@ class PathEngine:
             velocities = self._update_velocities(animation, frame, state)
             buf, src_positions, tgt_positions = self._trace(state.scene)
             echoes, num_paths = self._to_echoes(buf, src_positions, tgt_positions, state, velocities, radar)
-        finally:
-            if self.track_kernels:
-                history = dr.kernel_history()
-                dr.set_flag(dr.JitFlag.KernelHistory, history_flag)
-        launched = compiled = new = 0
-        if self.track_kernels:
-            jit = [k for k in history if k["type"] == dr.KernelType.JIT]
-            launched = len(jit)
-            compiled = sum(1 for k in jit if not k.get("cache_hit", False))
-            hashes = {k["hash"] for k in jit}
-            new = len(hashes - self._seen_hashes)
-            self._seen_hashes |= hashes
-        self.stats.append(FrameStats(frame, time.perf_counter() - t0, num_paths, launched, compiled, new, reloaded))
+        self.stats.append(FrameStats(frame, time.perf_counter() - t0, num_paths, kernels.launched, kernels.compiled,
+                                     kernels.new, reloaded))
         return echoes
 
     def __call__(self, animation: Animation, radar, frame: int, radar_pose=None) -> Echoes:
@@ -475,7 +373,7 @@ class PathEngine:
         valid_int = (types != InteractionType.NONE) & (shapes != int(INVALID_SHAPE))
 
         # --- per-vertex-velocity Doppler
-        vv_names = [n for n, v in state.vertex_velocity.items() if v is not None] if self.vertex_doppler else []
+        vv_names = [n for n, v in state.geometry.vertex_velocity.items() if v is not None] if self.vertex_doppler else []
         if vv_names:
             prims = np.asarray(buf.primitives.array.numpy(), dtype=np.int64).reshape(num, depth)
             verts = np.stack([np.asarray(buf.vertices_x.array.numpy(), dtype=np.float64),
@@ -505,7 +403,7 @@ class PathEngine:
             labels = last
         else:
             moving = {n for n, v in velocities.items() if np.any(v != 0)}
-            moving |= {n for n in vv_names if np.any(state.vertex_velocity[n] != 0)}
+            moving |= {n for n in vv_names if np.any(state.geometry.vertex_velocity[n] != 0)}
             is_moving = np.vectorize(lambda s: s in moving, otypes=[bool])(per_int) & found
             has = is_moving.any(axis=1)
             idx = np.argmax(is_moving, axis=1)
@@ -555,30 +453,12 @@ class PathEngine:
                 sel = valid_int[:, d] & (shapes[:, d] == oid)
                 if not np.any(sel):
                     continue
-                faces = state.faces[name][prims[sel, d]]
-                vpos = state.vertices[name]
-                vvel = state.vertex_velocity[name]
-                w = _barycentric(verts[sel, d], vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]])
-                v = (w[:, 0:1] * vvel[faces[:, 0]] + w[:, 1:2] * vvel[faces[:, 1]] + w[:, 2:3] * vvel[faces[:, 2]])
+                faces = state.geometry.faces[name][prims[sel, d]]
+                vpos = state.geometry.vertices[name]
+                w = barycentric_weights(verts[sel, d], vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]])
+                v = interpolate(state.geometry.vertex_velocity[name], faces, w)
                 extra[sel] += np.einsum("ij,ij->i", v, k_out[sel] - k_in[sel]) / wavelength
         return extra
-
-
-def _barycentric(p, a, b, c) -> np.ndarray:
-    """Barycentric weights ``[N, 3]`` of points ``p`` in triangles ``(a, b, c)`` (clipped to the triangle)."""
-    v0, v1, v2 = b - a, c - a, p - a
-    d00 = np.einsum("ij,ij->i", v0, v0)
-    d01 = np.einsum("ij,ij->i", v0, v1)
-    d11 = np.einsum("ij,ij->i", v1, v1)
-    d20 = np.einsum("ij,ij->i", v2, v0)
-    d21 = np.einsum("ij,ij->i", v2, v1)
-    den = d00 * d11 - d01 * d01
-    den = np.where(den == 0, 1.0, den)
-    v = (d11 * d20 - d01 * d21) / den
-    w = (d00 * d21 - d01 * d20) / den
-    bary = np.stack([1.0 - v - w, v, w], axis=-1)
-    bary = np.clip(bary, 0.0, 1.0)
-    return bary / bary.sum(axis=1, keepdims=True)
 
 
 __all__ = ["FrameStats", "PathEngine", "PathEngineError"]

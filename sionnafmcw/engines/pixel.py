@@ -192,7 +192,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.constants import epsilon_0 as VACUUM_PERMITTIVITY  # F/m, the value Sionna uses
@@ -209,6 +209,7 @@ from ..antenna import antenna_gain, check_pattern, direction_angles  # noqa: E40
 from ..constants import SPEED_OF_LIGHT  # noqa: E402
 from ..echoes import Echoes  # noqa: E402
 from ..geometry import rotation_matrix  # noqa: E402
+from .frame_scene import FrameScene, interpolate, resolve_pose, track_kernels  # noqa: E402
 from .scene_loading import SceneLoadError, load_radar_scene  # noqa: E402
 
 
@@ -426,16 +427,14 @@ class _Material:
 @dataclass
 class _State:
     key: tuple
-    scene: object
-    params: object
+    geometry: FrameScene            # scene, parameters and per-object geometry of the current frame
     names: list                     # object names, index = local object index
     index_by_id: dict               # Sionna object_id -> local object index
-    shape_keys: dict                # name -> Mitsuba shape id (scene parameter prefix)
     materials: list                 # local object index -> _Material
-    faces: dict                     # name -> [F, 3] int64
-    vertices: dict                  # name -> [V, 3] float64 (world, current frame)
-    vertex_velocity: dict           # name -> [V, 3] or None (current frame)
-    loaded_files: dict = field(default_factory=dict)
+
+    @property
+    def scene(self):
+        return self.geometry.scene
 
 
 # ---------------------------------------------------------------------------------------- engine
@@ -543,97 +542,24 @@ class PixelEngine:
             scene = load_radar_scene(animation.frames[0].xml, radar.fc)
         except SceneLoadError as err:
             raise PixelEngineError(str(err)) from err.__cause__
-        params = scene.mi_scene_params
-        names, index_by_id, shape_keys, materials = [], {}, {}, []
+        names, index_by_id, materials = [], {}, []
         for name, obj in scene.objects.items():
             index_by_id[int(obj.object_id)] = len(names)
             names.append(name)
-            shape_keys[name] = obj.mi_mesh.id()
             materials.append(self._material(name, obj.radio_material))
         if materials and all(m.scattering_coefficient == 0 for m in materials):
             warnings.warn(
                 f"PixelEngine: every material of {animation.frames[0].xml} has scattering_coefficient 0; the pixel "
                 "engine models diffuse scattering only, so it sees nothing. Give the materials a "
                 "scattering_coefficient or set PixelEngine(scattering_coefficient=...).", stacklevel=3)
-        state = _State(key, scene, params, names, index_by_id, shape_keys, materials, {}, {}, {})
-        frame_scene = animation.scene(0)
-        for name in names:
-            key_vp = f"{shape_keys[name]}.vertex_positions"
-            loaded = np.asarray(params[key_vp], dtype=float).reshape(-1, 3)
-            faces = np.asarray(params[f"{shape_keys[name]}.faces"], dtype=np.int64).reshape(-1, 3)
-            info = frame_scene.shapes.get(name)
-            if info is None or info.type != "ply":
-                # not a PLY: static geometry as Mitsuba loaded it (float32), no vertex velocities
-                state.vertices[name], state.faces[name], state.vertex_velocity[name] = loaded, faces, None
-                state.loaded_files[name] = ("not-ply", None if info is None else tuple(info.to_world.ravel()))
-                continue
-            mesh = animation.mesh(0, name)
-            if loaded.shape != mesh.vertices.shape or not np.allclose(loaded, mesh.vertices, atol=1e-4, rtol=1e-5):
-                raise PixelEngineError(
-                    f"{info.filename}: the vertices Mitsuba loaded differ from the PLY read by sionnafmcw "
-                    f"({loaded.shape[0]} vs {mesh.vertices.shape[0]} vertices); cannot update this mesh per frame")
-            if faces.shape != mesh.faces.shape or not np.array_equal(faces, mesh.faces):
-                raise PixelEngineError(
-                    f"{info.filename}: the faces Mitsuba loaded differ from the PLY read by sionnafmcw; "
-                    "cannot interpolate vertex velocities on this mesh")
-            state.vertices[name], state.faces[name] = mesh.vertices, faces
-            state.vertex_velocity[name] = mesh.vertex_velocities
-            state.loaded_files[name] = (info.filename, info.filename.stat().st_mtime, tuple(info.to_world.ravel()))
-        # write the frame-0 vertices of the meshes that move once now: the kernels of a geometry
-        # update are compiled while loading, not in frame 1
-        dynamic = set()
-        for i in range(1, animation.num_frames):
-            for name, info in animation.scene(i).shapes.items():
-                first = frame_scene.shapes.get(name)
-                if first is not None and info.type == "ply" and (
-                        info.filename != first.filename or not np.array_equal(info.to_world, first.to_world)):
-                    dynamic.add(name)
-        for name in sorted(dynamic & set(names)):
-            params[f"{shape_keys[name]}.vertex_positions"] = mi.Float(
-                np.ascontiguousarray(state.vertices[name].ravel(), dtype=np.float32))
-        if dynamic:
-            params.update()
-        dr.eval()
+        state = _State(key, FrameScene.load(scene, animation, PixelEngineError), names, index_by_id, materials)
         # one dummy cast so that the ray-casting kernel is compiled while loading
         self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
         return state
 
-    def _update_geometry(self, animation: Animation, frame: int, state: _State) -> None:
-        fs = animation.scene(frame)
-        missing = sorted(set(state.shape_keys) - set(fs.shapes))
-        extra = sorted(set(fs.shapes) - set(state.shape_keys))
-        if missing or extra:
-            raise PixelEngineError(
-                f"{fs.xml}: frame {frame} has a different set of shapes than frame 0 "
-                f"(missing: {missing or 'none'}, new: {extra or 'none'}); the engine keeps one scene per animation")
-        changed = False
-        for name, info in fs.shapes.items():
-            if info.type != "ply":
-                if state.loaded_files.get(name) != ("not-ply", tuple(info.to_world.ravel())):
-                    raise PixelEngineError(
-                        f"{fs.xml}: shape {info.id!r} of type {info.type!r} changes its transform in frame {frame}; "
-                        "only PLY meshes can move (export moving objects as PLY)")
-                continue
-            stamp = (info.filename, info.filename.stat().st_mtime, tuple(info.to_world.ravel()))
-            if state.loaded_files.get(name) == stamp:
-                continue
-            mesh = animation.mesh(frame, name)
-            if mesh.vertices.shape != state.vertices[name].shape:
-                raise PixelEngineError(
-                    f"{info.filename}: mesh {name!r} has {mesh.vertices.shape[0]} vertices in frame {frame} but "
-                    f"{state.vertices[name].shape[0]} in frame 0; per-frame meshes must keep their topology")
-            if mesh.faces.shape != state.faces[name].shape or not np.array_equal(mesh.faces, state.faces[name]):
-                raise PixelEngineError(
-                    f"{info.filename}: mesh {name!r} changes its faces in frame {frame}; per-frame meshes must keep "
-                    "their topology (only vertex positions may change)")
-            state.params[f"{state.shape_keys[name]}.vertex_positions"] = mi.Float(
-                np.ascontiguousarray(mesh.vertices.ravel(), dtype=np.float32))
-            state.vertices[name] = mesh.vertices
-            state.vertex_velocity[name] = mesh.vertex_velocities
-            state.loaded_files[name] = stamp
-            changed = True
-        if changed:
-            state.params.update()
+    @staticmethod
+    def _update_geometry(animation: Animation, frame: int, state: _State) -> None:
+        if state.geometry.update_geometry(animation, frame):
             dr.eval()
 
     # ------------------------------------------------------------------ ray casting
@@ -667,20 +593,12 @@ class PixelEngine:
         are left out of the echoes but kept in :attr:`last_render`.
         """
         t0 = time.perf_counter()
-        pose = radar_pose if radar_pose is not None else animation.radar_pose
-        if pose is None:
-            raise PixelEngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
-        if not isinstance(pose, RadarPose):
-            pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
+        pose = resolve_pose(animation, radar_pose, PixelEngineError)
         radar.validate(frame_period=animation.frame_period)
         check_pattern(radar.antenna_pattern)
         key = (id(animation), str(animation.path), radar.to_json())
         reloaded = False
-        history_flag = dr.flag(dr.JitFlag.KernelHistory)
-        if self.track_kernels:
-            dr.set_flag(dr.JitFlag.KernelHistory, True)
-            dr.kernel_history_clear()
-        try:
+        with track_kernels(self.track_kernels, self._seen_hashes) as kernels:
             if self._state is None or self._state.key != key:
                 self._state = None
                 self._state = self._load(animation, radar, key)
@@ -696,23 +614,12 @@ class PixelEngine:
             t_cast = time.perf_counter()
             valid, t_hit, shape_id, prim, uv = self._cast(state.scene, centre, directions)
             trace_seconds = time.perf_counter() - t_cast
-        finally:
-            if self.track_kernels:
-                history = dr.kernel_history()
-                dr.set_flag(dr.JitFlag.KernelHistory, history_flag)
         render, echoes = self._to_echoes(frame, animation, radar, state, pose, rotation, centre_local, centre,
                                          directions, valid, t_hit, shape_id, prim, uv)
         self.last_render = render
-        launched = compiled = new = 0
-        if self.track_kernels:
-            jit = [k for k in history if k["type"] == dr.KernelType.JIT]
-            launched = len(jit)
-            compiled = sum(1 for k in jit if not k.get("cache_hit", False))
-            hashes = {k["hash"] for k in jit}
-            new = len(hashes - self._seen_hashes)
-            self._seen_hashes |= hashes
         self.stats.append(PixelFrameStats(frame, time.perf_counter() - t0, trace_seconds, render.num_hits,
-                                          echoes.num_contributions, launched, compiled, new, reloaded))
+                                          echoes.num_contributions, kernels.launched, kernels.compiled, kernels.new,
+                                          reloaded))
         return echoes
 
     def __call__(self, animation: Animation, radar, frame: int, radar_pose=None) -> Echoes:
@@ -754,16 +661,16 @@ class PixelEngine:
             sel = np.nonzero(obj == k)[0]
             if sel.size == 0:
                 continue
-            tri = state.faces[name][prim[pix[sel]]]
-            verts = state.vertices[name]
+            tri = state.geometry.faces[name][prim[pix[sel]]]
+            verts = state.geometry.vertices[name]
             b1, b2 = uv[pix[sel], 0], uv[pix[sel], 1]
             w = np.stack([1.0 - b1 - b2, b1, b2], axis=-1)
             v0, v1, v2 = verts[tri[:, 0]], verts[tri[:, 1]], verts[tri[:, 2]]
-            position[sel] = w[:, 0:1] * v0 + w[:, 1:2] * v1 + w[:, 2:3] * v2
+            position[sel] = interpolate(verts, tri, w)
             normal[sel] = _unit(np.cross(v1 - v0, v2 - v0))
-            field = state.vertex_velocity.get(name) if self.vertex_doppler else None
+            field = state.geometry.vertex_velocity.get(name) if self.vertex_doppler else None
             if field is not None:
-                velocity[sel] = w[:, 0:1] * field[tri[:, 0]] + w[:, 1:2] * field[tri[:, 1]] + w[:, 2:3] * field[tri[:, 2]]
+                velocity[sel] = interpolate(field, tri, w)
             else:
                 velocity[sel] = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
         offset = position - centre
