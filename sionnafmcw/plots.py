@@ -31,10 +31,9 @@ _TRUTH_STYLE_MAP = dict(marker="*", linestyle="none", color="red", markerfacecol
 
 
 def _axes(ax, figsize=(6.4, 4.8)):
+    """``ax``, or the axes of a new figure. The backend is left alone (inline in Jupyter; without a
+    display matplotlib itself falls back to Agg; ``MPLBACKEND`` overrides both)."""
     if ax is None:
-        import matplotlib
-
-        matplotlib.use("Agg", force=False)
         import matplotlib.pyplot as plt
 
         _, ax = plt.subplots(figsize=figsize, constrained_layout=True)
@@ -460,7 +459,7 @@ def plot_scene_top_view(animation, radar=None, radar_pose=None, frames=None, obj
         (line,) = ax.plot(track[:, 0], track[:, 1], ".-", color=colour, markersize=3, linewidth=1.2, zorder=3,
                           label=f"{name}: centroid track, frames {frames[0]}..{frames[-1]}")
         ax.plot(track[0, 0], track[0, 1], "o", color=colour, markersize=7, zorder=4)
-        if len(track) >= 2 and np.linalg.norm(track[-1, :2] - track[-2, :2]) > 0:
+        if len(track) >= 2 and np.linalg.norm(track[-1, :2] - track[-2, :2]) > 1e-6:
             ax.annotate("", xy=track[-1, :2], xytext=track[-2, :2], zorder=4,
                         arrowprops=dict(arrowstyle="-|>", color=colour, lw=1.5, mutation_scale=14))
         handles.append(line)

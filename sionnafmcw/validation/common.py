@@ -58,9 +58,10 @@ def _same(a, b) -> bool:
         return a == b
 
 
-def run_engine(animation, radar, engine: str, out: Path, engine_options: dict | None = None, frames=None,
+def run_engine(animation, radar, engine, out: Path, engine_options: dict | None = None, frames=None,
                seed: int = 0, noise: bool = True, progress: bool = True, fresh: bool = True):
-    """``simulate`` into ``out`` (a fresh store unless ``fresh=False``); returns (dataset, seconds)."""
+    """``simulate`` with ``engine`` (a name or an engine object) into ``out`` (a fresh store unless
+    ``fresh=False``); returns (dataset, seconds)."""
     import shutil
 
     from ..simulation import simulate
