@@ -2,7 +2,7 @@
 # Creates the simulator's virtual environment (.venv) and the system library it needs.
 #   - libLLVM >= 16 for Dr.Jit's LLVM backend (libLLVM-15 crashes it): installed with apt-get
 #     when we are root on Debian/Ubuntu, otherwise we stop and say what to install.
-#   - .venv with the package and its test extras.
+#   - .venv with the package and its test and tf extras (tensorflow-cpu: ~270 MB download, ~1.4 GB installed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${VENV:-.venv}
@@ -34,6 +34,6 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -e ".[test]"
+"$VENV/bin/python" -m pip install -q -e ".[test,tf]"
 touch "$VENV/.installed"
 echo "setup: $VENV ready"

@@ -1,0 +1,143 @@
+r"""Data-set generation throughput: items per minute with 1 and with 2 Dask workers on this machine.
+
+For each worker count W the script starts a ``distributed.LocalCluster`` of W processes (1
+thread each), warms it with one item per worker (process start, imports, first kernel
+compilation: the one-off cost :math:`t_w`), then times :func:`sionnafmcw.dataset.generate` of a
+fresh ``--items``-item data set on the warm cluster (Dr.Jit threads per worker = cores // W).
+It prints items/minute, the ratio to the 1-worker baseline measured in the same process, the
+mean per-item wall time inside a worker and its CPU time (from the index), the scheduler
+overhead per task (:math:`t_s`, from a burst of no-op tasks) and the bytes each item writes
+(:math:`S`).
+
+Estimate for a cluster of :math:`M` machines of :math:`C` cores, one single-threaded worker per
+core (a shared file system holding ``out``, one scheduler), with :math:`t_1` the CPU time of one
+item (core-seconds, from the 1-worker run: CPU time is not stretched by other users' load the
+way wall time is):
+
+.. math::
+    T(N) \approx t_w + \left\lceil \frac{N}{M C} \right\rceil t_1,\qquad
+    \text{throughput} \approx \min\left(\frac{M C}{t_1},\ \frac{1}{t_s},\ \frac{B}{S}\right)
+
+where :math:`B` is the file system's aggregate write bandwidth. The scheduler handles a task in
+:math:`t_s` (about a millisecond on an idle machine), so it limits only when :math:`M C > t_1/t_s`;
+storage limits when :math:`M C S / t_1` approaches :math:`B`. Items are independent (no data
+moves between workers), so nothing else grows with :math:`M`.
+
+Caveat: this machine has 2 cores shared with other users; the load average is printed with the
+numbers.
+
+    python benchmarks/dataset.py [--items 8] [--frames 4] [--chirps 64] [--scenario moving_plate]
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import math
+import os
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+def make_spec(name, scenario, count, frames, chirps, seed, samples):
+    params = {"num_frames": frames}
+    if scenario == "moving_plate":
+        params.update(speed={"uniform": [-3.0, 3.0]}, start_range={"uniform": [2.0, 6.0]})
+    return {"name": name, "scenario": scenario, "count": count, "seed": seed,
+            "radar": {"preset": "walk-77ghz", "num_chirps": chirps},
+            "engine_options": {"samples_per_src": samples}, "parameters": params}
+
+
+def folder_bytes(path: Path) -> int:
+    return sum(p.stat().st_size for p in path.rglob("*") if p.is_file())
+
+
+def run(workers: int, args, root: Path) -> dict:
+    from distributed import Client, LocalCluster
+
+    from sionnafmcw.dataset import generate
+
+    cores = os.cpu_count() or 1
+    threads = max(1, cores // workers)
+    t0 = time.perf_counter()
+    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
+                      silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
+        t_cluster = time.perf_counter() - t0
+        warm = make_spec(f"warm{workers}", args.scenario, workers, args.frames, args.chirps, 100 + workers, args.samples)
+        generate(warm, root / f"warm{workers}", scheduler=client, progress=False, item_threads=threads)
+        t_warm = time.perf_counter() - t0
+        # scheduler overhead: a burst of no-op tasks
+        n_noop = 500
+        ts = time.perf_counter()
+        client.gather(client.map(lambda i: i, range(n_noop), pure=False))
+        t_sched = (time.perf_counter() - ts) / n_noop
+        spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples)
+        ts = time.perf_counter()
+        index = generate(spec, root / f"bench{workers}", scheduler=client, progress=False, item_threads=threads)
+        elapsed = time.perf_counter() - ts
+    ok = int((index.status.values == "complete").sum())
+    size = np.mean([folder_bytes(root / f"bench{workers}" / "items" / i) for i in index.item.values])
+    return {"workers": workers, "cluster_s": t_cluster, "warm_s": t_warm, "elapsed_s": elapsed, "complete": ok,
+            "items_per_min": 60.0 * ok / elapsed, "item_s": float(np.nanmean(index.seconds.values)),
+            "item_cpu_s": float(np.nanmean(index.cpu_seconds.values)),
+            "sched_ms": 1e3 * t_sched, "bytes": float(size), "threads": threads}
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--items", type=int, default=8)
+    parser.add_argument("--frames", type=int, default=4)
+    parser.add_argument("--chirps", type=int, default=64, help="chirps per Tx of walk-77ghz (128 samples)")
+    parser.add_argument("--samples", type=int, default=20_000, help="PathEngine samples_per_src")
+    parser.add_argument("--scenario", default="moving_plate", choices=["moving_plate", "straight_walk"])
+    parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
+    parser.add_argument("--keep", help="folder to keep the data sets in (default: a temporary one)")
+    args = parser.parse_args(argv)
+
+    root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="sionnafmcw-bench-"))
+    print(f"{args.items} items x {args.frames} frames of {args.scenario}, walk-77ghz with {args.chirps} chirps, "
+          f"samples_per_src={args.samples}; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
+    rows = []
+    try:
+        for w in args.workers:
+            rows.append(run(w, args, root))
+    finally:
+        if not args.keep:
+            shutil.rmtree(root, ignore_errors=True)
+    base = rows[0]["items_per_min"]
+    print(f"{'workers':>7} {'start s':>8} {'warm s':>7} {'items':>6} {'time s':>7} {'items/min':>10} {'ratio':>6} "
+          f"{'t_1 s':>6} {'cpu s':>6} {'sched ms':>9} {'MB/item':>8}")
+    for r in rows:
+        print(f"{r['workers']:>7} {r['cluster_s']:>8.1f} {r['warm_s']:>7.1f} {r['complete']:>6} {r['elapsed_s']:>7.1f} "
+              f"{r['items_per_min']:>10.1f} {r['items_per_min'] / base:>6.2f} {r['item_s']:>6.2f} "
+              f"{r['item_cpu_s']:>6.2f} {r['sched_ms']:>9.2f} {r['bytes'] / 1e6:>8.2f}")
+    print(f"load average after: {os.getloadavg()[0]:.2f}  (t_1: wall time of one item in a worker; cpu: its "
+          "worker's CPU time meanwhile; ratio: items/min against the first row)")
+
+    # ---- the cluster estimate: per-item cost from the 1-worker row (CPU time: what an item costs a
+    # dedicated core), scheduler overhead and item size measured above
+    r1 = rows[0]
+    t1 = r1["item_cpu_s"]  # core-seconds per item: unaffected by the other users' load, unlike wall time
+    ts = min(r["sched_ms"] for r in rows) / 1e3
+    size = rows[-1]["bytes"]
+    tw = max(r["warm_s"] for r in rows)
+    print(f"\nestimate for M machines of C cores, one worker per core (t_1 = {t1:.2f} core-s/item from the "
+          f"1-worker run, t_s = {ts * 1e3:.2f} ms/task, S = {size / 1e6:.2f} MB/item, t_w = {tw:.0f} s start-up):")
+    for m, c in ((1, 2), (1, 16), (10, 16), (100, 16), (1000, 16)):
+        compute = m * c / t1
+        rate = min(compute, 1.0 / ts)  # items/s, capped by the scheduler
+        hours = (tw + max(math.ceil(1e5 / (m * c)) * t1, 1e5 * ts)) / 3600
+        print(f"  M={m:>4} x C={c:>2}: compute {60 * compute:>9.0f} items/min, with the scheduler cap "
+              f"{60 * rate:>8.0f} items/min, writes {rate * size / 1e6:>7.1f} MB/s; 10^5 items in {hours:>6.2f} h")
+    print("  (t_s measured here on a loaded 2-core machine; a dedicated scheduler core does ~1 ms/task)")
+    print(f"  limits: one scheduler handles ~{60 / ts:,.0f} tasks/min (1/t_s), so it caps the cluster only when "
+          f"M*C > t_1/t_s = {t1 / ts:,.0f} workers; a file system of B MB/s caps it at B/S = B/{size / 1e6:.2f} "
+          f"items/s, i.e. at M*C = B * t_1 / S = {t1 / (size / 1e6):.2f} * B workers.")
+
+
+if __name__ == "__main__":
+    main()
