@@ -84,7 +84,7 @@ def _pearson(a, b) -> float:
 
 
 class _PowerRecorder:
-    """Forwards ``echoes`` to an engine and records the received power :math:`\sum|a|^2` per frame."""
+    r"""Forwards ``echoes`` to an engine and records the received power :math:`\sum|a|^2` per frame."""
 
     def __init__(self, engine):
         self.engine = engine
@@ -100,7 +100,7 @@ class _PowerRecorder:
 
 
 def _half_power_beamwidth_deg(radar) -> float:
-    """Broadside half-power beamwidth of the uniform virtual row, :math:`0.886\lambda/(N_v d)` (rad -> deg)."""
+    r"""Broadside half-power beamwidth of the uniform virtual row, :math:`0.886\lambda/(N_v d)` (rad -> deg)."""
     elements, d = processing.uniform_azimuth_row(radar)
     return float(np.rad2deg(0.886 * radar.center_wavelength / (len(elements) * d)))
 
