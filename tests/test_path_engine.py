@@ -306,3 +306,15 @@ def test_frames_must_keep_shapes_and_topology(tmp_path):
     engine.echoes(anim, RADAR, 0)
     with pytest.raises(PathEngineError, match=r"plate_0001\.ply: mesh 'plate' has 9 vertices in frame 1 but 4"):
         engine.echoes(anim, RADAR, 1)
+
+
+def test_full_path_buffer_is_an_error_not_a_silent_loss(tmp_path):
+    """A rough plate filling the field of view: every ray makes a diffuse candidate, so 2000 rays per
+    source cannot fit a 500-path buffer; Sionna would drop the rest silently."""
+    anim = load_animation(write_plate_animation(tmp_path / "rough", num_frames=1, size=(8.0, 8.0), distance=2.0,
+                                                materials=ROUGH, material="mat-rough"))
+    with pytest.raises(PathEngineError, match=r"filled Sionna's path buffer .*raise max_num_paths_per_src"):
+        PathEngine(max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=500).echoes(anim, RADAR, 0)
+    echoes = PathEngine(max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=20_000).echoes(
+        anim, RADAR, 0)
+    assert echoes.num_contributions > 500
