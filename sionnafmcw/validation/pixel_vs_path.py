@@ -291,6 +291,11 @@ def main(argv=None) -> int:
     parser.add_argument("--n-az", type=int, default=256, help="pixel engine azimuth pixels")
     parser.add_argument("--n-el", type=int, default=128, help="pixel engine elevation pixels")
     parser.add_argument("--array-model", choices=("plane-wave", "exact"), default="exact")
+    parser.add_argument("--no-path-specular", action="store_true",
+                        help="path engine without specular reflection (the pixel engine's physics: diffuse only)")
+    parser.add_argument("--path-buffer", type=int, default=None,
+                        help="path engine max_num_paths_per_src (default 1e6; 4 x rays per source without specular: "
+                             "in a room every ray gives a diffuse candidate for each of the 4 Rx elements)")
     parser.add_argument("--quiet", action="store_true")
     args = parser.parse_args(argv)
 
@@ -301,7 +306,8 @@ def main(argv=None) -> int:
     out.mkdir(parents=True, exist_ok=True)
     radar = (RadarConfig.preset(args.radar) if args.radar in RadarConfig.presets()
              else RadarConfig.from_json(Path(args.radar).read_text()))
-    metrics = {"experiment": "pixel_vs_path", "radar": radar.name, "targets": TARGETS, "scenes": {}, "figures": []}
+    metrics = {"experiment": "pixel_vs_path", "radar": radar.name, "targets": TARGETS, "scenes": {}, "figures": [],
+               "path_specular": not args.no_path_specular}
     for scene in args.scenes:
         params, default_frames = SCENES[scene]
         n = default_frames if args.frames is None else int(args.frames)
@@ -312,7 +318,10 @@ def main(argv=None) -> int:
         n = min(n, animation.num_frames)
         frames = list(range(n))
         runs, seconds, received, expected = {}, {}, {}, {}
-        for engine, options in (("path", {"max_depth": 1, "samples_per_src": args.samples_per_src}),
+        buffer = args.path_buffer or (4 * args.samples_per_src if args.no_path_specular else 1_000_000)
+        path_options = {"max_depth": 1, "samples_per_src": args.samples_per_src,
+                        "max_num_paths_per_src": buffer, "specular": not args.no_path_specular}
+        for engine, options in (("path", path_options),
                                 ("pixel", {"n_az": args.n_az, "n_el": args.n_el, "array_model": args.array_model})):
             recorder = _PowerRecorder(make_engine(engine, **options))
             ds, sec = run_engine(animation, radar, recorder, out / "runs" / f"{scene}_{engine}.zarr",
