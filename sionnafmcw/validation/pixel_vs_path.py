@@ -44,6 +44,8 @@ Metrics per scene (:math:`N` frames, each one CPI):
   the rough plate: -86.8 to -91.9 dB map energy for 5e4-1e6 rays against a constant -74.3 dB
   :math:`\sum|a|^2`); averaged over :math:`N` decorrelated frames its spread shrinks like
   :math:`1/\sqrt N`;
+* ``received_power_db`` / ``received_power_by_object_db`` (reported): :math:`\sum|a|^2` per
+  frame, in all and per object hit (the label of the contribution);
 * ``angle_peak_difference_deg``: per frame, the azimuth of the maximum of each engine's angle
   spectrum (Bartlett range-azimuth map, TDM-compensated, clutter-removed, summed over range);
   the mean absolute difference, against the array's half-power beamwidth (reported, no target;
@@ -135,10 +137,15 @@ class _PowerRecorder:
         self.moving_only = moving_only
         self.power = {}
         self.profile = {}
+        self.by_object = {}
 
     def echoes(self, animation, radar, frame, radar_pose=None):
         echoes = self.engine.echoes(animation, radar, frame, radar_pose=radar_pose)
-        self.power[frame] = float(np.sum(np.abs(echoes.a) ** 2))
+        a2 = np.abs(echoes.a) ** 2
+        self.power[frame] = float(np.sum(a2))
+        for label in np.unique(echoes.labels):
+            if label:
+                self.by_object[str(label)] = self.by_object.get(str(label), 0.0) + float(a2[echoes.labels == label].sum())
         self.profile[frame] = expected_range_profile(echoes, radar, self.moving_only)
         return echoes
 
@@ -317,7 +324,7 @@ def main(argv=None) -> int:
         animation = load_animation(build_scene(scene, out / "scenes" / scene, params))
         n = min(n, animation.num_frames)
         frames = list(range(n))
-        runs, seconds, received, expected = {}, {}, {}, {}
+        runs, seconds, received, expected, by_object = {}, {}, {}, {}, {}
         buffer = args.path_buffer or (4 * args.samples_per_src if args.no_path_specular else 1_000_000)
         path_options = {"max_depth": 1, "samples_per_src": args.samples_per_src,
                         "max_num_paths_per_src": buffer, "specular": not args.no_path_specular}
@@ -329,6 +336,7 @@ def main(argv=None) -> int:
             runs[engine] = ds.isel(frame=slice(0, n))
             seconds[engine] = sec / n
             received[engine] = sum(recorder.power.values())
+            by_object[engine] = recorder.by_object
             expected[engine] = sum(recorder.profile.values())
         objects, gate = TRACKED[scene]
         m = compare(runs["path"], runs["pixel"], radar, clutter_removal=True, objects=objects, gate=gate)
@@ -340,6 +348,8 @@ def main(argv=None) -> int:
         metrics["figures"].append(_plot_expected(out, scene, expected, m["_ranges"],
                                                  public["expected_range_profile_correlation"]))
         public["received_power_db"] = {k: float(10 * np.log10(v / n)) for k, v in received.items()}
+        public["received_power_by_object_db"] = {
+            k: {o: float(10 * np.log10(p / n)) for o, p in sorted(v.items()) if p > 0} for k, v in by_object.items()}
         public["seconds_per_frame"] = seconds
         public["checks"] = {
             "range_profile_correlation": public["range_profile_correlation"] >= TARGETS["range_profile_correlation"],
