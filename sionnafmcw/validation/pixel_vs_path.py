@@ -226,65 +226,63 @@ def compare(ds_path, ds_pixel, radar, clutter_removal: bool = True, objects=None
     }
 
 
+_STYLES = {"path": "b-", "pixel": "r--"}
+
+
+def _overlay(path: Path, curves: dict, xlabel: str, ylabel: str, title: str, ylim=None, marker: str = "") -> str:
+    """One figure with the two engines' curves ``{engine: [(x, y), ...]}`` overlaid (path blue, pixel red)."""
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    for k, lines in curves.items():
+        for j, (x, y) in enumerate(lines):
+            ax.plot(x, y, marker + _STYLES[k], label=f"{k} engine" if j == 0 else None)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.set_title(title)
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    return plots.save(ax, path)
+
+
+def _db(p, floor=1e-300):
+    return 10 * np.log10(np.maximum(p, floor))
+
+
 def _plots(out: Path, scene: str, m: dict, times) -> list[str]:
     import matplotlib.pyplot as plt
 
-    files = []
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-    for k, style in (("path", "b-"), ("pixel", "r--")):
-        ax.plot(m["_ranges"], 10 * np.log10(np.maximum(m["_profiles"][k], 1e-300)), style, label=f"{k} engine")
-    ax.set_xlabel("range (m)")
-    ax.set_ylabel("power (dB W)")
-    ax.set_title(f"{scene}: range profile, correlation {m['range_profile_correlation']:.3f}")
-    ax.grid(True, alpha=0.3)
-    ax.legend()
-    files.append(plots.save(ax, out / f"{scene}_range_profile.png"))
-
+    engines = ("path", "pixel")
+    files = [_overlay(out / f"{scene}_range_profile.png",
+                      {k: [(m["_ranges"], _db(m["_profiles"][k]))] for k in engines}, "range (m)", "power (dB W)",
+                      f"{scene}: range profile, correlation {m['range_profile_correlation']:.3f}")]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.5), constrained_layout=True)
-    for ax, k in zip(axes, ("path", "pixel")):
+    for ax, k in zip(axes, engines):
         plots.plot_range_doppler(m["_maps"]["rd"][k], ax=ax, title=f"{scene}: {k} engine, frame {m['_maps']['angle_frame']}")
     files.append(plots.save(axes[0], out / f"{scene}_range_doppler.png"))
-
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
-    for k, style in (("path", "b.-"), ("pixel", "r.--")):
-        for j, o in enumerate(m["_tracks"]["objects"]):
-            ax.plot(times, m["_tracks"][k][:, j], style, label=f"{k} engine" if j == 0 else None)
-    ax.set_xlabel("time (s)")
-    ax.set_ylabel("radial velocity (m/s, + receding)")
-    ax.set_title(f"{scene}: Doppler-time, {100 * m['doppler_time_within_one_bin']:.0f} % of CPIs within one bin")
-    ax.grid(True, alpha=0.3)
-    ax.legend()
-    files.append(plots.save(ax, out / f"{scene}_doppler_time.png"))
-
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
+    tracks = m["_tracks"]
+    files.append(_overlay(out / f"{scene}_doppler_time.png",
+                          {k: [(times, tracks[k][:, j]) for j in range(len(tracks["objects"]))] for k in engines},
+                          "time (s)", "radial velocity (m/s, + receding)",
+                          f"{scene}: Doppler-time, {100 * m['doppler_time_within_one_bin']:.0f} % of CPIs within one bin",
+                          marker="."))
     f = m["_maps"]["angle_frame"]
-    for k, style in (("path", "b-"), ("pixel", "r--")):
-        spec = np.asarray(m["_maps"][k][f], float)
-        ax.plot(np.rad2deg(m["_az_grid"]), 10 * np.log10(np.maximum(spec / spec.max(), 1e-12)), style, label=f"{k} engine")
-    ax.set_ylim(-40, 2)
-    ax.set_xlabel("azimuth (deg)")
-    ax.set_ylabel("Bartlett power (dB, normalised)")
-    ax.set_title(f"{scene}: angle spectrum (summed over range), frame {f}")
-    ax.grid(True, alpha=0.3)
-    ax.legend()
-    files.append(plots.save(ax, out / f"{scene}_angle.png"))
+    spectra = {k: np.asarray(m["_maps"][k][f], float) for k in engines}
+    files.append(_overlay(out / f"{scene}_angle.png",
+                          {k: [(np.rad2deg(m["_az_grid"]), _db(v / v.max(), 1e-12))] for k, v in spectra.items()},
+                          "azimuth (deg)", "Bartlett power (dB, normalised)",
+                          f"{scene}: angle spectrum (summed over range), frame {f}", ylim=(-40, 2)))
     return files
 
 
 def _plot_expected(out: Path, scene: str, expected: dict, ranges, corr: float) -> str:
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(7, 4), constrained_layout=True)
     top = max(float(np.max(v)) for v in expected.values())
-    for k, style in (("path", "b-"), ("pixel", "r--")):
-        ax.plot(ranges, 10 * np.log10(np.maximum(expected[k] / top, 1e-30)), style, label=f"{k} engine")
-    ax.set_ylim(-80, 3)
-    ax.set_xlabel("range (m)")
-    ax.set_ylabel("power (dB, common reference)")
-    ax.set_title(f"{scene}: speckle-free range profile (sum of |a|^2), correlation {corr:.3f}")
-    ax.grid(True, alpha=0.3)
-    ax.legend()
-    return plots.save(ax, out / f"{scene}_expected_range_profile.png")
+    return _overlay(out / f"{scene}_expected_range_profile.png",
+                    {k: [(ranges, _db(v / top, 1e-30))] for k, v in expected.items()}, "range (m)",
+                    "power (dB, common reference)",
+                    f"{scene}: speckle-free range profile (sum of |a|^2), correlation {corr:.3f}", ylim=(-80, 3))
 
 
 def main(argv=None) -> int:
