@@ -152,14 +152,7 @@ def check_value(scenario: str, key: str, p: Parameter, value):
     if p.type is float:
         if isinstance(value, bool) or not isinstance(value, (int, float)) and not hasattr(value, "__float__"):
             raise _bad(scenario, key, p, value, "is not a number")
-        try:
-            x = float(value)
-        except (TypeError, ValueError):
-            raise _bad(scenario, key, p, value, "is not a number") from None
-        if not math.isfinite(x):
-            raise _bad(scenario, key, p, value, "is not finite")
-        _check_bounds(scenario, key, p, value, x)
-        return x
+        return _finite_number(scenario, key, p, value, value, ("is not a number", "is not finite"))
     # tuple of floats
     if isinstance(value, (str, bytes)) or not hasattr(value, "__iter__"):
         raise _bad(scenario, key, p, value, "is not a sequence of numbers")
@@ -167,15 +160,21 @@ def check_value(scenario: str, key: str, p: Parameter, value):
     for v in value:
         if isinstance(v, bool):
             raise _bad(scenario, key, p, value, "holds a bool")
-        try:
-            x = float(v)
-        except (TypeError, ValueError):
-            raise _bad(scenario, key, p, value, "holds a value that is not a number") from None
-        if not math.isfinite(x):
-            raise _bad(scenario, key, p, value, "holds a non-finite value")
-        _check_bounds(scenario, key, p, value, x)
-        out.append(x)
+        out.append(_finite_number(scenario, key, p, value, v,
+                                  ("holds a value that is not a number", "holds a non-finite value")))
     return tuple(out)
+
+
+def _finite_number(scenario, key, p, value, v, problems) -> float:
+    """``float(v)``, finite and within ``p``'s bounds; ``problems`` = (not a number, not finite) messages."""
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise _bad(scenario, key, p, value, problems[0]) from None
+    if not math.isfinite(x):
+        raise _bad(scenario, key, p, value, problems[1])
+    _check_bounds(scenario, key, p, value, x)
+    return x
 
 
 def _check_bounds(scenario, key, p, value, x):
