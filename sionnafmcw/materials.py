@@ -69,6 +69,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._llvm import configure_llvm
+from .constants import VACUUM_PERMITTIVITY
 
 configure_llvm()
 
@@ -77,10 +78,6 @@ import sionna.rt  # noqa: E402,F401  (sets the Mitsuba variant and registers Sio
 from sionna.rt.constants import DEFAULT_THICKNESS  # noqa: E402
 from sionna.rt.radio_materials.itu import ITU_MATERIALS_PROPERTIES  # noqa: E402
 from sionna.rt.radio_materials.radio_material import RadioMaterial  # noqa: E402
-
-#: Vacuum permittivity (F/m), CODATA 2018.
-EPSILON_0 = 8.8541878128e-12
-
 
 class MaterialError(ValueError):
     """A radio material that cannot be used; the message names it."""
@@ -112,7 +109,7 @@ class ColeColeTissue:
         for de, tau, alpha in zip(self.delta, self.tau, self.alpha):
             if de != 0.0:
                 eps = eps + de / (1.0 + (1j * w * tau) ** (1.0 - alpha))
-        return eps + self.sigma_ionic / (1j * w * EPSILON_0)
+        return eps + self.sigma_ionic / (1j * w * VACUUM_PERMITTIVITY)
 
     def properties(self, frequency: float) -> tuple[float, float]:
         """``(relative_permittivity, conductivity)`` as Sionna wants them (real part, S/m)."""
@@ -123,7 +120,7 @@ class ColeColeTissue:
                 f"{self.min_frequency:g} Hz - {self.max_frequency / 1e9:g} GHz, not at {frequency / 1e9:g} GHz"
             )
         eps = complex(self.permittivity(frequency))
-        sigma = -eps.imag * 2.0 * np.pi * frequency * EPSILON_0
+        sigma = -eps.imag * 2.0 * np.pi * frequency * VACUUM_PERMITTIVITY
         return eps.real, sigma
 
 

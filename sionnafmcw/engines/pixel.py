@@ -195,7 +195,6 @@ import warnings
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.constants import epsilon_0 as VACUUM_PERMITTIVITY  # F/m, the value Sionna uses
 
 from .._llvm import configure_llvm
 
@@ -206,7 +205,7 @@ import mitsuba as mi  # noqa: E402
 
 from ..animation import Animation, RadarPose  # noqa: E402
 from ..antenna import antenna_gain, check_pattern, direction_angles  # noqa: E402
-from ..constants import SPEED_OF_LIGHT  # noqa: E402
+from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY  # noqa: E402
 from ..echoes import Echoes  # noqa: E402
 from ..geometry import rotation_matrix  # noqa: E402
 from .frame_scene import FrameScene, interpolate, resolve_pose, track_kernels  # noqa: E402
