@@ -229,7 +229,7 @@ def _preset_rows():
         radar = RadarConfig.preset(name)
         d = radar.derived()
         rows.append({
-            "name": name, "fc": radar.fc, "center_frequency": d["center_frequency"], "bandwidth": d["bandwidth"],
+            "name": name, "fc": radar.fc, "centre_frequency": d["centre_frequency"], "bandwidth": d["bandwidth"],
             "range_resolution": d["range_resolution"], "max_range": d["max_range"],
             "max_velocity": d["max_velocity"], "velocity_resolution": d["velocity_resolution"],
             "cpi_duration": d["cpi_duration"], "num_tx": radar.num_tx, "num_rx": radar.num_rx,

@@ -153,19 +153,19 @@ class RadarConfig:
         return SPEED_OF_LIGHT / self.fc
 
     @property
-    def adc_center_time(self) -> float:
+    def adc_centre_time(self) -> float:
         """:math:`t_{mid}`, time of the ADC window centre after the ramp start (s)."""
         return self.adc_start_time + (self.num_samples - 1) / (2.0 * self.fs)
 
     @property
-    def center_frequency(self) -> float:
+    def centre_frequency(self) -> float:
         """Instantaneous frequency at the ADC window centre :math:`f_{mid}` (Hz)."""
-        return self.fc + self.slope * self.adc_center_time
+        return self.fc + self.slope * self.adc_centre_time
 
     @property
-    def center_wavelength(self) -> float:
+    def centre_wavelength(self) -> float:
         """:math:`\\lambda_{mid} = c / f_{mid}` (m): the wavelength for velocity and angle axes."""
-        return SPEED_OF_LIGHT / self.center_frequency
+        return SPEED_OF_LIGHT / self.centre_frequency
 
     @property
     def bandwidth(self) -> float:
@@ -190,12 +190,12 @@ class RadarConfig:
     @property
     def max_velocity(self) -> float:
         """Unambiguous radial velocity :math:`\\lambda_{mid}/(4 T_b)` (m/s), TDM-aware."""
-        return self.center_wavelength / (4.0 * self.block_interval)
+        return self.centre_wavelength / (4.0 * self.block_interval)
 
     @property
     def velocity_resolution(self) -> float:
         """:math:`\\lambda_{mid} / (2 L T_b)` (m/s), the Doppler FFT bin width."""
-        return self.center_wavelength / (2.0 * self.num_chirps * self.block_interval)
+        return self.centre_wavelength / (2.0 * self.num_chirps * self.block_interval)
 
     @property
     def cpi_duration(self) -> float:
@@ -226,7 +226,7 @@ class RadarConfig:
         """The derived figures as a plain dict (SI units), for listings and stores."""
         return {
             "wavelength": self.wavelength,
-            "center_frequency": self.center_frequency,
+            "centre_frequency": self.centre_frequency,
             "bandwidth": self.bandwidth,
             "range_resolution": self.range_resolution,
             "max_range": self.max_range,

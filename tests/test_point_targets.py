@@ -52,7 +52,7 @@ def test_two_targets_one_range_bin_apart_are_resolved():
     """
     radar = RADAR
     bin_m = radar.range_resolution
-    cycles = 2 * bin_m / radar.center_wavelength
+    cycles = 2 * bin_m / radar.centre_wavelength
     separation = bin_m * (np.floor(cycles) + 0.5) / cycles
     assert abs(separation / bin_m - 1) < 0.01
     r0 = 0.4 * radar.max_range

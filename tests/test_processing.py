@@ -57,7 +57,7 @@ def beat_cube(radar, targets, noise_std=0.0, seed=0, start_time=0.0):
 
 def peak_time(radar):
     """Time the range-Doppler peak refers to: the periodic-Hann centre chirp L/2, ADC centre."""
-    return (radar.num_chirps // 2) * radar.block_interval + radar.adc_center_time
+    return (radar.num_chirps // 2) * radar.block_interval + radar.adc_centre_time
 
 
 def true_range(radar, R0, v=0.0, az=0.0, el=0.0, t=0.0):
@@ -201,7 +201,7 @@ def _two_targets(rel_phase):
     """Two static targets one range resolution apart at boresight, relative phase ``rel_phase`` at the ADC centre."""
     R1 = 5.0
     R2 = R1 + WALK.range_resolution
-    t_mid = WALK.adc_center_time
+    t_mid = WALK.adc_centre_time
 
     def phase(R):  # beat phase of element pair (0, 0) at the ADC window centre
         tau = (np.linalg.norm(R * np.array([1.0, 0, 0]) - WALK.tx_positions[0])
@@ -311,7 +311,7 @@ def test_micro_doppler_spectrogram_peaks_at_target_velocity():
     per_frame = (WALK.num_chirps - W) // H + 1
     assert spec.power.shape == (W, 3 * per_frame) and spec.times.shape == (3 * per_frame,)
     assert np.all(np.diff(spec.times) > 0)
-    bin_w = WALK.center_wavelength / (2 * W * WALK.block_interval)
+    bin_w = WALK.centre_wavelength / (2 * W * WALK.block_interval)
     assert np.isclose(spec.velocities[1] - spec.velocities[0], bin_w)
     truth = np.repeat(speeds, per_frame)
     assert np.all(np.abs(spec.peak_velocities() - truth) <= 0.5 * bin_w + 1e-9)  # nearest bin

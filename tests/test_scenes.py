@@ -453,7 +453,7 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
 
     sg = processing.micro_doppler_spectrogram(ds.iq.values, radar, times)
     dv = sg.velocities[1] - sg.velocities[0]
-    assert dv == pytest.approx(radar.center_wavelength / (2 * radar.num_chirps * radar.block_interval))
+    assert dv == pytest.approx(radar.centre_wavelength / (2 * radar.num_chirps * radar.block_interval))
     peak = sg.peak_velocities()
     torso = truth_vr[:, names.index("torso")]
     assert np.all(peak >= surface[:, 2] - dv / 2) and np.all(peak <= surface[:, 3] + dv / 2)

@@ -47,7 +47,7 @@ from .windows import window_weights
 def steering_vectors(radar, azimuths, elevations=0.0) -> np.ndarray:
     """:math:`a_v(\\phi, \\theta_e)`, shape ``broadcast(azimuths, elevations).shape + [V]`` (complex128)."""
     u = target_direction(*np.broadcast_arrays(np.asarray(azimuths, float), np.asarray(elevations, float)))
-    return np.exp(-2j * np.pi / radar.center_wavelength * (u @ virtual_array(radar).T))
+    return np.exp(-2j * np.pi / radar.centre_wavelength * (u @ virtual_array(radar).T))
 
 
 @dataclass
@@ -102,7 +102,7 @@ def angle_fft(x, radar, n_fft: int = 256, window=None, tx_axis: int = 1) -> Angl
     shape[axis] = -1
     row = row * w.reshape(shape)
     spec = scipy.fft.fftshift(scipy.fft.ifft(row, n=n_fft, axis=axis) * n_fft, axes=axis)
-    u = (np.arange(n_fft) - n_fft // 2) / n_fft * radar.center_wavelength / d
+    u = (np.arange(n_fft) - n_fft // 2) / n_fft * radar.centre_wavelength / d
     with np.errstate(invalid="ignore"):
         az = np.where(np.abs(u) <= 1.0, np.arcsin(np.clip(u, -1, 1)), np.nan)
     return AngleSpectrum(spec, u, az, elements, d)

@@ -70,4 +70,4 @@ def range_doppler_coupling(radial_velocity, radar) -> np.ndarray:
     range to get the range at the CPI time of the peak.
     """
     v = np.asarray(radial_velocity, dtype=float)
-    return v * (radar.fc + 2.0 * radar.slope * radar.adc_center_time) / radar.slope
+    return v * (radar.fc + 2.0 * radar.slope * radar.adc_centre_time) / radar.slope

@@ -95,7 +95,7 @@ def doppler_time(frames, radar, clutter_removal: bool = True, interpolate: bool 
         else:
             fi, fk = float(i), float(k)
         v = float(uniform_axis_value(rdm.velocities, fi))
-        vmax = radar.center_wavelength / (4.0 * radar.block_interval)
+        vmax = radar.centre_wavelength / (4.0 * radar.block_interval)
         vel.append((v + vmax) % (2 * vmax) - vmax)
         rng.append(float(uniform_axis_value(rdm.ranges, fk)))
         pw.append(float(rdm.power[i, k]))
@@ -165,5 +165,5 @@ def micro_doppler_spectrogram(frames, radar, frame_times, range_gate=None, windo
     times = np.concatenate(times)
     power = np.concatenate(columns, axis=1)
     order = np.argsort(times, kind="stable")
-    velocities = sft.f * radar.center_wavelength / 2.0
+    velocities = sft.f * radar.centre_wavelength / 2.0
     return MicroDopplerSpectrogram(times[order], velocities, power[:, order])

@@ -118,7 +118,7 @@ def tdm_phase_compensation(rd, radar, velocities, doppler_axis: int | None = 0, 
     shape = [1] * x.ndim
     shape[tx_axis] = radar.num_tx
     if v.ndim == 0:
-        phase = (-4.0 * np.pi / radar.center_wavelength) * v * delay.reshape(shape)
+        phase = (-4.0 * np.pi / radar.centre_wavelength) * v * delay.reshape(shape)
     else:
         if doppler_axis is None or v.ndim != 1:
             raise ValueError("tdm_phase_compensation: velocities must be a scalar or 1-D along doppler_axis")
@@ -127,6 +127,6 @@ def tdm_phase_compensation(rd, radar, velocities, doppler_axis: int | None = 0, 
             raise ValueError(f"tdm_phase_compensation: {v.size} velocities for {x.shape[doppler_axis]} Doppler bins")
         vshape = [1] * x.ndim
         vshape[doppler_axis] = v.size
-        phase = (-4.0 * np.pi / radar.center_wavelength) * v.reshape(vshape) * delay.reshape(shape)
+        phase = (-4.0 * np.pi / radar.centre_wavelength) * v.reshape(vshape) * delay.reshape(shape)
     rot = np.exp(1j * phase).astype(np.result_type(x.dtype, np.complex64))
     return x * rot

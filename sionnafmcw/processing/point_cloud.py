@@ -111,7 +111,7 @@ def detections_to_point_cloud(cube, radar, cfar: str = "ca", guard=(2, 2), train
         fr = interpolate_peak(power, (di, ri), axis=1)
     else:
         fd, fr = di.astype(float), ri.astype(float)
-    vmax = radar.center_wavelength / (4.0 * radar.block_interval)
+    vmax = radar.centre_wavelength / (4.0 * radar.block_interval)
     vel = (uniform_axis_value(vel_axis, fd) + vmax) % (2 * vmax) - vmax
     rng = uniform_axis_value(ranges_axis, fr)
     if correct_coupling:

@@ -48,4 +48,4 @@ def velocity_axis(radar, n_fft: int | None = None) -> np.ndarray:
     r"""Radial velocity of every shifted Doppler bin, :math:`v_i = (i - \lfloor L/2\rfloor)\lambda_{mid}/(2 L T_b)` (m/s, + receding)."""
     n_fft = radar.num_chirps if n_fft is None else int(n_fft)
     i = np.arange(n_fft) - n_fft // 2
-    return i / (n_fft * radar.block_interval) * radar.center_wavelength / 2.0
+    return i / (n_fft * radar.block_interval) * radar.centre_wavelength / 2.0

@@ -86,7 +86,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     l0 = (L - 1) / 2.0
     lc = np.arange(L) - l0
     kc = np.arange(Ns) - (Ns - 1) / 2.0
-    f_mid = radar.center_frequency
+    f_mid = radar.centre_frequency
     eps1 = radar.slope / (radar.fs * f_mid)
     eps2 = radar.slope / (radar.block_interval * f_mid * radar.fs**2)
     grid_l, grid_k = np.meshgrid(lc, kc, indexing="ij")  # [L, Ns]

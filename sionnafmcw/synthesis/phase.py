@@ -73,8 +73,8 @@ class PhasePolynomial:
     def from_delay_doppler(cls, tau0, nu, slot, radar) -> "PhasePolynomial":
         """Coefficients for delays ``tau0`` (s), ``nu = f_D/f_c`` and Tx firing slot(s) ``slot``."""
         mu, fs = radar.slope, radar.fs
-        t_mid = radar.adc_center_time
-        f_mid = radar.center_frequency
+        t_mid = radar.adc_centre_time
+        f_mid = radar.centre_frequency
         t_b = radar.block_interval
         tau_a = tau0 - nu * (np.asarray(slot) * radar.chirp_interval + t_mid)
         return cls(

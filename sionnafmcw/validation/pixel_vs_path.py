@@ -156,7 +156,7 @@ class _PowerRecorder:
 def _half_power_beamwidth_deg(radar) -> float:
     r"""Broadside half-power beamwidth of the uniform virtual row, :math:`0.886\lambda/(N_v d)` (rad -> deg)."""
     elements, d = processing.uniform_azimuth_row(radar)
-    return float(np.rad2deg(0.886 * radar.center_wavelength / (len(elements) * d)))
+    return float(np.rad2deg(0.886 * radar.centre_wavelength / (len(elements) * d)))
 
 
 def _gated_tracks(ds_path, ds_pixel, radar, objects, gate: float, clutter_removal: bool) -> dict:
