@@ -1,0 +1,55 @@
+r"""Animation directories: the scene on disk that every engine reads, written by the Blender
+exporter (:mod:`sionnafmcw.blender`), the scene builders (:mod:`sionnafmcw.scenes`) or by hand.
+
+This docstring is the data contract of the directory::
+
+    <scene>/animation.json
+    <scene>/frames/0000.xml, 0001.xml, ...   Mitsuba 3 scene XML, one per frame
+    <scene>/meshes/*.ply                     shared by frames where a mesh does not change
+
+``animation.json``::
+
+    {"format": "sionnafmcw-animation/1",
+     "fps": 24.0,
+     "radar": {"position": [x, y, z], "orientation": [yaw, pitch, roll]},
+     "frames": [{"index": 0, "time": 0.0, "xml": "frames/0000.xml",
+                 "objects": {"<name>": {"velocity": [vx, vy, vz]}}}]}
+
+* Frame ``i`` starts at :math:`t_i = i/\mathrm{fps}` (s). ``radar`` is the default radar pose:
+  position (m, world) and orientation (yaw, pitch, roll) (rad, Sionna's
+  :math:`\mathbf R = \mathbf R_z(\mathrm{yaw})\mathbf R_y(\mathrm{pitch})\mathbf R_x(\mathrm{roll})`);
+  a caller may override it.
+* Shapes are ``<shape type="ply" id="mesh-<name>">`` with a radio material (``itu-radio-material``,
+  ``radio-material`` or sionnafmcw's ``skin-radio-material``, see :mod:`sionnafmcw.materials`);
+  ``<name>`` is the object name of the manifest and of the run store's truth.
+* An object's manifest ``velocity`` is its linear velocity (m/s, world frame) in that frame. A PLY
+  may carry per-vertex velocities ``vx, vy, vz`` (m/s, world frame); where it does, Doppler is
+  computed from them at the interaction points (deforming bodies, rotating parts).
+
+Rooms, one job each:
+
+* :mod:`.ply` -- PLY meshes, read and write (numpy only);
+* :mod:`.frame_xml` -- the Mitsuba XML of a frame, read (:class:`ParsedFrameXml`) and write (numpy only);
+* :mod:`.model` -- :class:`Animation`, :class:`RadarPose`, :class:`Frame`, :class:`Mesh`;
+* :mod:`.manifest` -- :func:`load_animation` (checks everything it can without ray tracing and
+  raises an :class:`AnimationError` naming the file and field that is wrong) and
+  :func:`write_animation`.
+
+The whole package needs only numpy and the standard library, so the Blender exporter (numpy < 2,
+no Sionna) imports its writers.
+"""
+
+from .errors import AnimationError
+from .frame_xml import ParsedFrameXml, ShapeInfo, frame_xml_text, parse_frame_xml, write_frame_xml
+from .manifest import FORMAT, TIME_TOLERANCE, load_animation, write_animation
+from .model import Animation, Frame, Mesh, RadarPose
+from .ply import PlyData, ply_bytes, read_ply, write_ply
+
+#: The older name of :func:`frame_xml_text` (the XML text of one frame's Mitsuba scene).
+scene_xml = frame_xml_text
+
+__all__ = [
+    "FORMAT", "TIME_TOLERANCE", "Animation", "AnimationError", "Frame", "Mesh", "ParsedFrameXml", "PlyData",
+    "RadarPose", "ShapeInfo", "frame_xml_text", "load_animation", "parse_frame_xml", "ply_bytes", "read_ply",
+    "scene_xml", "write_animation", "write_frame_xml", "write_ply",
+]

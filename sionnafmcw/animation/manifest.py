@@ -1,0 +1,162 @@
+r"""The animation manifest ``animation.json``: :func:`load_animation` (read and check a whole
+animation directory) and :func:`write_animation` (write the manifest of frames already on disk).
+
+The layout and the manifest's fields are in :mod:`sionnafmcw.animation`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AnimationError
+from .model import Animation, Frame, RadarPose
+from .ply import read_ply_cached
+
+#: The manifest's ``format`` field.
+FORMAT = "sionnafmcw-animation/1"
+#: Largest difference (s) between a frame's ``time`` and ``index / fps``.
+TIME_TOLERANCE = 1e-6
+
+
+def _vector(value, n, where) -> np.ndarray:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise AnimationError(f"{where} must be {n} numbers, got {value!r}") from None
+    if arr.shape != (n,):
+        raise AnimationError(f"{where} must be {n} numbers, got {value!r}")
+    if not np.all(np.isfinite(arr)):
+        raise AnimationError(f"{where} contains non-finite values: {value!r}")
+    return arr
+
+
+def load_animation(path, check_meshes: bool = True) -> Animation:
+    """Load and check an animation directory (or its ``animation.json``).
+
+    Checks: the manifest's ``format``, ``fps``, ``radar`` and ``frames`` (indices 0, 1, 2...
+    in order, ``time`` = index/fps within 1e-6 s, finite object velocities), every frame XML
+    (readable, shapes with radio materials Sionna knows, mesh files present, a ``mesh-<name>``
+    shape for every object with a velocity) and, with ``check_meshes``, every PLY it refers to
+    (readable, vertex velocities complete, one per vertex, finite).
+    """
+    path = Path(path)
+    manifest_path = path / "animation.json" if path.is_dir() else path
+    root = manifest_path.parent
+    try:
+        text = manifest_path.read_text()
+    except OSError as err:
+        raise AnimationError(f"{manifest_path}: cannot read the animation manifest ({err.strerror or err})") from None
+    try:
+        manifest = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise AnimationError(f"{manifest_path}: invalid JSON ({err})") from None
+    if not isinstance(manifest, dict):
+        raise AnimationError(f"{manifest_path}: the manifest must be a JSON object")
+    where = str(manifest_path)
+    if manifest.get("format") != FORMAT:
+        raise AnimationError(f"{where}: field 'format' is {manifest.get('format')!r}, expected {FORMAT!r}")
+    fps = manifest.get("fps")
+    if isinstance(fps, bool) or not isinstance(fps, (int, float)) or not math.isfinite(fps) or fps <= 0:
+        raise AnimationError(f"{where}: field 'fps' must be a positive number, got {fps!r}")
+    fps = float(fps)
+
+    radar_pose = None
+    if "radar" in manifest:
+        radar = manifest["radar"]
+        if not isinstance(radar, dict):
+            raise AnimationError(f"{where}: field 'radar' must be an object with position and orientation")
+        position = _vector(radar.get("position"), 3, f"{where}: field 'radar.position'")
+        orientation = _vector(radar.get("orientation", [0.0, 0.0, 0.0]), 3, f"{where}: field 'radar.orientation'")
+        radar_pose = RadarPose(position, orientation)
+
+    frames_raw = manifest.get("frames")
+    if not isinstance(frames_raw, list) or not frames_raw:
+        raise AnimationError(f"{where}: field 'frames' must be a non-empty list")
+    frames = []
+    for i, fr in enumerate(frames_raw):
+        fw = f"{where}: frames[{i}]"
+        if not isinstance(fr, dict):
+            raise AnimationError(f"{fw} must be an object")
+        idx = fr.get("index")
+        if isinstance(idx, bool) or not isinstance(idx, int):
+            raise AnimationError(f"{fw}.index must be an integer, got {idx!r}")
+        if idx != i:
+            raise AnimationError(f"{fw}.index is {idx}, expected {i}: frames must be listed in order 0, 1, 2, ...")
+        t = fr.get("time")
+        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t):
+            raise AnimationError(f"{fw}.time must be a number, got {t!r}")
+        if abs(t - idx / fps) > TIME_TOLERANCE:
+            raise AnimationError(
+                f"{fw}.time is {t!r} s but index/fps = {idx / fps!r} s (tolerance {TIME_TOLERANCE} s)"
+            )
+        xml = fr.get("xml")
+        if not isinstance(xml, str) or not xml:
+            raise AnimationError(f"{fw}.xml must be a path string, got {xml!r}")
+        xml_path = (root / xml).resolve()
+        if not xml_path.is_file():
+            raise AnimationError(f"{fw}.xml: frame XML {xml!r} not found (looked for {xml_path})")
+        objects_raw = fr.get("objects", {})
+        if not isinstance(objects_raw, dict):
+            raise AnimationError(f"{fw}.objects must be an object {{name: {{velocity: [vx, vy, vz]}}}}")
+        objects = {}
+        for name, spec in objects_raw.items():
+            ow = f"{fw}.objects[{name!r}]"
+            if not isinstance(spec, dict) or "velocity" not in spec:
+                raise AnimationError(f"{ow} must be an object with a 'velocity'")
+            objects[name] = _vector(spec["velocity"], 3, f"{ow}.velocity")
+        frames.append(Frame(idx, float(t), xml_path, objects))
+
+    anim = Animation(root, fps, frames, radar_pose, manifest)
+    checked_plys = set()
+    for fr in frames:
+        parsed = anim.frame_xml(fr.index)
+        for name in fr.objects:
+            if name not in parsed.shapes:
+                raise AnimationError(
+                    f"{where}: frames[{fr.index}].objects[{name!r}] has a velocity but {fr.xml} has no shape "
+                    f"'mesh-{name}' (shapes: {', '.join(s.id for s in parsed.shapes.values()) or 'none'})"
+                )
+        if check_meshes:
+            for shape in parsed.shapes.values():
+                if shape.type == "ply" and shape.filename not in checked_plys:
+                    read_ply_cached(shape.filename)
+                    checked_plys.add(shape.filename)
+    return anim
+
+
+def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict | None = None) -> Path:
+    """Write ``animation.json`` for frames already on disk; returns its path.
+
+    ``frames``: list of dicts ``{"xml": relative path, "objects": {name: velocity [3]}}`` (index
+    and time ``index / fps`` are filled in). ``radar_pose``: a :class:`RadarPose`, a dict
+    ``{"position", "orientation"}`` or ``(position, orientation)``. ``extra``: further top-level
+    fields (e.g. ``"source"``, ``"scenario"``; the loader ignores fields it does not know).
+    """
+    path = Path(path)
+    path.mkdir(parents=True, exist_ok=True)
+    manifest = {"format": FORMAT, "fps": float(fps)}
+    if radar_pose is not None:
+        if isinstance(radar_pose, RadarPose):
+            manifest["radar"] = radar_pose.to_dict()
+        elif isinstance(radar_pose, dict):
+            manifest["radar"] = {"position": [float(x) for x in radar_pose["position"]],
+                                 "orientation": [float(x) for x in radar_pose["orientation"]]}
+        else:
+            manifest["radar"] = {"position": [float(x) for x in radar_pose[0]],
+                                 "orientation": [float(x) for x in radar_pose[1]]}
+    manifest["frames"] = [
+        {"index": i, "time": i / float(fps), "xml": f["xml"],
+         "objects": {n: {"velocity": [float(x) for x in v]} for n, v in f.get("objects", {}).items()}}
+        for i, f in enumerate(frames)
+    ]
+    manifest.update(extra or {})
+    out = path / "animation.json"
+    out.write_text(json.dumps(manifest, indent=1))
+    return out
+
+
+__all__ = ["FORMAT", "TIME_TOLERANCE", "load_animation", "write_animation"]

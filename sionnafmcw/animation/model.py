@@ -1,0 +1,180 @@
+r"""The animation model: :class:`Animation` (frames, times, objects, meshes in world coordinates),
+:class:`RadarPose`, :class:`Frame`, :class:`Mesh`. Build an :class:`Animation` with
+:func:`sionnafmcw.animation.load_animation`; the directory layout is in :mod:`sionnafmcw.animation`.
+
+Frame XMLs (:mod:`.frame_xml`) and PLYs (:mod:`.ply`) are read lazily, with small caches, so a long
+animation loads quickly. Vertex velocities in a PLY are world-frame and are not transformed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import AnimationError
+from .frame_xml import ParsedFrameXml, parse_frame_xml
+from .ply import read_ply_cached
+
+#: Parsed frame XMLs an :class:`Animation` keeps (the cache is emptied when it is full).
+FRAME_XML_CACHE_SIZE = 64
+
+
+@dataclass(frozen=True)
+class RadarPose:
+    """Radar position (m, world) and orientation ``[yaw, pitch, roll]`` (rad, Sionna's convention)."""
+
+    position: np.ndarray
+    orientation: np.ndarray
+
+    def to_dict(self) -> dict:
+        return {"position": [float(x) for x in self.position], "orientation": [float(x) for x in self.orientation]}
+
+
+@dataclass(frozen=True)
+class Frame:
+    """One frame: ``index``, start ``time`` (s), ``xml`` path and ``objects`` {name: velocity [3] (m/s)}."""
+
+    index: int
+    time: float
+    xml: Path
+    objects: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Mesh:
+    """A mesh of one frame in world coordinates; ``vertex_velocities`` is None without vx, vy, vz."""
+
+    name: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    vertex_velocities: np.ndarray | None
+
+    @property
+    def centroid(self) -> np.ndarray:
+        """Area-weighted centroid of the surface (vertex mean for a mesh without area)."""
+        if len(self.faces):
+            tri = self.vertices[self.faces]
+            area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+            if area.sum() > 0:
+                return (tri.mean(axis=1) * area[:, None]).sum(axis=0) / area.sum()
+        return self.vertices.mean(axis=0)
+
+
+class Animation:
+    """A checked animation directory; build it with :func:`~sionnafmcw.animation.load_animation`."""
+
+    def __init__(self, path: Path, fps: float, frames: list, radar_pose: RadarPose | None, manifest: dict):
+        self.path = Path(path)
+        self.fps = float(fps)
+        self.frames = frames
+        self.radar_pose = radar_pose
+        self.manifest = manifest
+        self._frame_xml_cache: dict = {}
+
+    # ------------------------------------------------------------------ basic facts
+    @property
+    def frame_period(self) -> float:
+        """Time between frames, 1/fps (s)."""
+        return 1.0 / self.fps
+
+    @property
+    def num_frames(self) -> int:
+        return len(self.frames)
+
+    @property
+    def times(self) -> np.ndarray:
+        """Frame start times (s)."""
+        return np.array([f.time for f in self.frames], dtype=float)
+
+    @property
+    def object_names(self) -> list[str]:
+        """Names of the objects the manifest gives velocities for, in order of first appearance."""
+        names: list[str] = []
+        for f in self.frames:
+            for n in f.objects:
+                if n not in names:
+                    names.append(n)
+        return names
+
+    def __len__(self) -> int:
+        return self.num_frames
+
+    def __repr__(self) -> str:
+        return f"Animation({str(self.path)!r}, {self.num_frames} frames at {self.fps:g} fps, objects={self.object_names})"
+
+    def frame(self, index: int) -> Frame:
+        if not (0 <= index < self.num_frames):
+            raise IndexError(f"frame index {index} out of range 0..{self.num_frames - 1}")
+        return self.frames[index]
+
+    # ------------------------------------------------------------------ geometry
+    def frame_xml(self, frame_index: int) -> ParsedFrameXml:
+        """The parsed XML of a frame: shapes by object name, their meshes and materials (cached)."""
+        xml = self.frame(frame_index).xml
+        if xml not in self._frame_xml_cache:
+            if len(self._frame_xml_cache) > FRAME_XML_CACHE_SIZE:
+                self._frame_xml_cache.clear()
+            self._frame_xml_cache[xml] = parse_frame_xml(xml)
+        return self._frame_xml_cache[xml]
+
+    def scene(self, frame_index: int) -> ParsedFrameXml:
+        """Same as :meth:`frame_xml` (the older name)."""
+        return self.frame_xml(frame_index)
+
+    def mesh(self, frame_index: int, name: str) -> Mesh:
+        """World-space mesh of object ``name`` in a frame (XML transform applied)."""
+        shapes = self.frame_xml(frame_index).shapes
+        if name not in shapes:
+            raise KeyError(f"frame {frame_index} ({self.frame(frame_index).xml}) has no shape 'mesh-{name}'")
+        info = shapes[name]
+        if info.type != "ply":
+            raise AnimationError(f"{self.frame(frame_index).xml}: shape {info.id!r} is of type {info.type!r}; "
+                                 "only PLY meshes can be read")
+        ply = read_ply_cached(info.filename)
+        v = ply.vertices
+        if not np.allclose(info.to_world, np.eye(4)):
+            v = v @ info.to_world[:3, :3].T + info.to_world[:3, 3]
+        return Mesh(name, v, ply.faces, ply.vertex_velocities)
+
+    def object_positions(self, frame_index: int, names=None) -> dict:
+        """``{name: area-weighted centroid [3]}`` (m, world) of the objects' meshes in a frame.
+
+        ``names`` defaults to :attr:`object_names`.
+        """
+        names = self.object_names if names is None else names
+        return {n: self.mesh(frame_index, n).centroid for n in names}
+
+    def vertex_velocities(self, frame_index: int, name: str) -> np.ndarray | None:
+        """Per-vertex velocities ``[V, 3]`` (m/s, world) of ``name`` in a frame, or None."""
+        return self.mesh(frame_index, name).vertex_velocities
+
+    def object_velocity(self, frame_index: int, name: str) -> np.ndarray:
+        """Manifest velocity of ``name`` in a frame (zeros when not listed)."""
+        return np.asarray(self.frame(frame_index).objects.get(name, np.zeros(3)), dtype=float)
+
+    def materials(self) -> dict:
+        """``{material id: MaterialSpec}`` over all frames."""
+        out = {}
+        for i in range(self.num_frames):
+            out.update(self.frame_xml(i).materials())
+        return out
+
+    def check_frequency(self, frequency: float) -> None:
+        """Raise :class:`~sionnafmcw.materials.MaterialFrequencyError` if a material has no model at ``frequency``."""
+        from ..materials import check_material_frequency
+
+        seen = set()
+        for i in range(self.num_frames):
+            sc = self.frame_xml(i)
+            for shape in sc.shapes.values():
+                key = (shape.material.id, shape.material.kind, shape.material.itu_type)
+                if key in seen:
+                    continue
+                seen.add(key)
+                check_material_frequency(shape.material, frequency,
+                                         where=f"{sc.xml}: shape {shape.id!r}, material {shape.material.id!r}")
+
+
+__all__ = ["Animation", "FRAME_XML_CACHE_SIZE", "Frame", "Mesh", "RadarPose"]
