@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import array
+
 
 def rotation_matrix(orientation) -> np.ndarray:
     """:math:`R_z(yaw) R_y(pitch) R_x(roll)` for ``orientation = [yaw, pitch, roll]`` (rad)."""
@@ -36,11 +38,17 @@ def world_to_radar(points, position, orientation) -> np.ndarray:
     return (np.asarray(points, float) - np.asarray(position, float)) @ rotation_matrix(orientation)
 
 
-def phase_centre(radar, position, orientation) -> np.ndarray:
-    """World position of the virtual array's phase centre (:func:`~sionnafmcw.processing.array_phase_centre`)."""
-    from .processing.mimo import array_phase_centre
+def world_phase_centre(radar, position, orientation) -> np.ndarray:
+    r"""World position of the virtual array's phase centre, :math:`\mathbf c_w = \mathbf c + \mathbf R\,\mathbf c_r` (m, ``[3]``).
 
-    return radar_to_world(array_phase_centre(radar), position, orientation)
+    :math:`\mathbf c_r` is :func:`sionnafmcw.array.phase_centre` (radar frame), ``position`` the
+    radar origin :math:`\mathbf c` and ``orientation`` its (yaw, pitch, roll) in the world.
+    """
+    return radar_to_world(array.phase_centre(radar), position, orientation)
+
+
+# transitional alias (issue 10): removed at integration
+phase_centre = world_phase_centre
 
 
 def radial_velocity(positions, velocities, origin) -> np.ndarray:

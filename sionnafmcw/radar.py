@@ -26,11 +26,14 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import numbers
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from . import array
 from .antenna import PATTERNS
 from .constants import SPEED_OF_LIGHT
 
@@ -146,6 +149,16 @@ class RadarConfig:
     def num_rx(self) -> int:
         """Number of receive elements :math:`N`."""
         return self.rx_positions.shape[0]
+
+    @property
+    def virtual_array(self) -> np.ndarray:
+        """Virtual element positions ``[M*N, 3]`` (m, radar frame), tx-major: :func:`sionnafmcw.array.virtual_array`."""
+        return array.virtual_array(self)
+
+    @property
+    def phase_centre(self) -> np.ndarray:
+        """Phase centre of the virtual array ``[3]`` (m, radar frame): :func:`sionnafmcw.array.phase_centre`."""
+        return array.phase_centre(self)
 
     @property
     def wavelength(self) -> float:
@@ -298,7 +311,9 @@ class RadarConfig:
 
     @classmethod
     def from_dict(cls, data: dict) -> "RadarConfig":
-        """Inverse of :meth:`to_dict`; unknown or missing fields are named in the error."""
+        """Inverse of :meth:`to_dict`; unknown or missing fields and wrong types are named in the error."""
+        if not isinstance(data, dict):
+            raise RadarConfigError(f"RadarConfig: expected a mapping of fields, got {type(data).__name__}")
         names = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - names)
         if unknown:
@@ -308,6 +323,8 @@ class RadarConfig:
         missing = sorted(required - set(data))
         if missing:
             raise RadarConfigError(f"RadarConfig: missing field(s) {', '.join(missing)}")
+        for name, value in data.items():
+            _check_field_type(name, value)
         return cls(**data)
 
     def to_json(self, **kwargs) -> str:
@@ -316,6 +333,42 @@ class RadarConfig:
     @classmethod
     def from_json(cls, text: str) -> "RadarConfig":
         return cls.from_dict(json.loads(text))
+
+    @classmethod
+    def resolve(cls, spec) -> "RadarConfig":
+        """A :class:`RadarConfig` from any of the ways a radar is named.
+
+        ``spec`` is one of
+
+        * a :class:`RadarConfig` (returned as is);
+        * a preset name (:meth:`presets`);
+        * a dict: a full configuration (:meth:`to_dict`'s fields), or a preset with changes
+          ``{"preset": NAME, field: value, ...}`` (the name becomes ``NAME*`` unless ``name`` is
+          one of the changes);
+        * the path (``str`` or :class:`~pathlib.Path`) of a ``.json`` file holding either dict form;
+        * the path of a TI mmWave SDK ``.cfg`` file, read by
+          :func:`sionnafmcw.io.ti_cfg.read_ti_cfg`.
+
+        Raises :class:`RadarConfigError` naming the file (when there is one) and the field:
+        unknown fields against the known ones, wrong types, invalid JSON with its line and column.
+        """
+        if isinstance(spec, RadarConfig):
+            return spec
+        if isinstance(spec, dict):
+            return _from_mapping(spec)
+        if isinstance(spec, str) and spec in _PRESETS:
+            return cls.preset(spec)
+        if isinstance(spec, (str, Path)):
+            path = Path(spec)
+            if isinstance(spec, str) and not path.exists() and path.suffix.lower() not in (".json", ".cfg"):
+                raise RadarConfigError(
+                    f"radar {spec!r} is neither a preset ({', '.join(_PRESETS)}) nor an existing .json or TI .cfg file"
+                )
+            return _from_file(path)
+        raise RadarConfigError(
+            "radar must be a RadarConfig, a preset name, a dict or the path of a .json or TI .cfg file, "
+            f"got {type(spec).__name__}"
+        )
 
     def replace(self, **changes) -> "RadarConfig":
         """A copy with some fields changed (validated)."""
@@ -338,6 +391,97 @@ class RadarConfig:
         if name not in _PRESETS:
             raise RadarConfigError(f"unknown radar preset {name!r}; choose one of {', '.join(_PRESETS)}")
         return _PRESETS[name]()
+
+
+_FLOAT_FIELDS = ("fc", "slope", "fs", "chirp_interval", "adc_start_time", "ramp_end_time", "tx_power", "noise_figure")
+_INT_FIELDS = ("num_samples", "num_chirps")
+_STR_FIELDS = ("antenna_pattern", "name")
+
+
+def _is_real(value) -> bool:
+    return isinstance(value, numbers.Real) and not isinstance(value, (bool, np.bool_))
+
+
+def _check_field_type(name: str, value) -> None:
+    """Raise :class:`RadarConfigError` when ``value`` has the wrong type for field ``name``."""
+    if name in _FLOAT_FIELDS:
+        if not _is_real(value):
+            raise RadarConfigError(f"RadarConfig.{name} must be a number (SI units), got {value!r}")
+    elif name in _INT_FIELDS:
+        if not _is_real(value) or float(value) != int(value):
+            raise RadarConfigError(f"RadarConfig.{name} must be an integer, got {value!r}")
+    elif name in _STR_FIELDS:
+        if not isinstance(value, str):
+            raise RadarConfigError(f"RadarConfig.{name} must be a string, got {value!r}")
+    elif name in ("tx_positions", "rx_positions"):
+        try:
+            pos = np.atleast_2d(np.asarray(value, dtype=float))
+        except (TypeError, ValueError):
+            raise RadarConfigError(f"RadarConfig.{name} must be a list of [x, y, z] positions (m), got {value!r}") from None
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise RadarConfigError(f"RadarConfig.{name} must be a list of [x, y, z] positions (m), got shape {pos.shape}")
+    elif name == "tx_order" and value is not None:
+        if (not isinstance(value, (list, tuple, np.ndarray))
+                or not all(_is_real(i) and float(i) == int(i) for i in value)):
+            raise RadarConfigError(f"RadarConfig.tx_order must be a list of Tx indices, got {value!r}")
+
+
+def _from_mapping(data: dict) -> RadarConfig:
+    """A full configuration dict, or ``{"preset": NAME, field: value, ...}``."""
+    if "preset" not in data:
+        return RadarConfig.from_dict(data)
+    base = data["preset"]
+    if not isinstance(base, str) or base not in _PRESETS:
+        raise RadarConfigError(f"field 'preset' is {base!r}; choose one of {', '.join(_PRESETS)}")
+    changes = {k: v for k, v in data.items() if k != "preset"}
+    config = RadarConfig.preset(base).to_dict()
+    unknown = sorted(set(changes) - set(config))
+    if unknown:
+        raise RadarConfigError(f"unknown RadarConfig field(s) {', '.join(unknown)}; known: {', '.join(sorted(config))}")
+    config.update(changes)
+    if "name" not in changes:
+        config["name"] = f"{base}*" if changes else base
+    return RadarConfig.from_dict(config)
+
+
+def _from_file(path: Path) -> RadarConfig:
+    """A radar from a ``.json`` file (either dict form of :meth:`RadarConfig.resolve`) or a TI ``.cfg``."""
+    if not path.exists():
+        raise RadarConfigError(f"{path}: no such radar file")
+    if path.is_dir():
+        raise RadarConfigError(f"{path}: is a directory, expected a radar .json or TI .cfg file")
+    if path.suffix.lower() == ".cfg":
+        return _from_ti_cfg(path)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as err:
+        raise RadarConfigError(f"{path}: invalid JSON at line {err.lineno}, column {err.colno}: {err.msg}") from None
+    except (OSError, UnicodeDecodeError) as err:
+        raise RadarConfigError(f"{path}: cannot read the radar file ({getattr(err, 'strerror', None) or err})") from None
+    if not isinstance(data, dict):
+        raise RadarConfigError(f"{path}: the radar file must hold a JSON object with RadarConfig fields "
+                               "(RadarConfig.to_dict()) or {\"preset\": NAME, field: value, ...}")
+    try:
+        return _from_mapping(data)
+    except RadarConfigError as err:
+        raise RadarConfigError(f"{path}: {err}") from None
+
+
+def _from_ti_cfg(path: Path) -> RadarConfig:
+    """A TI mmWave SDK ``.cfg`` file through :func:`sionnafmcw.io.ti_cfg.read_ti_cfg` (imported lazily)."""
+    try:
+        from .io.ti_cfg import read_ti_cfg
+    except ImportError as err:
+        raise RadarConfigError(f"{path}: reading a TI mmWave .cfg file needs sionnafmcw.io.ti_cfg, which cannot be "
+                               f"imported ({err}); give a preset or a .json radar file instead") from None
+    try:
+        return read_ti_cfg(path)
+    except RadarConfigError as err:
+        if str(path) in str(err):
+            raise
+        raise RadarConfigError(f"{path}: {err}") from None
+    except (OSError, UnicodeDecodeError, ValueError) as err:
+        raise RadarConfigError(f"{path}: {err}") from None
 
 
 def _ti_profile(name, start_ghz, idle_us, adc_start_us, ramp_end_us, slope_mhz_us, num_samples,

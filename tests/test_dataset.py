@@ -145,7 +145,7 @@ def test_a_scenario_seed_is_drawn_per_item_unless_set():
     ({"parameters": {"speed": {"normal": [0, 1]}}}, r"exactly one key among value, choice, uniform, range"),
     ({"parameters": {"room": "yes"}}, r"parameters.room: .*not a bool"),
     ({"radar": "awr9999"}, r"radar: unknown radar preset 'awr9999'"),
-    ({"radar": {"preset": "walk-77ghz", "chirps": 8}}, r"radar: chirps is not a RadarConfig field"),
+    ({"radar": {"preset": "walk-77ghz", "chirps": 8}}, r"radar: unknown RadarConfig field\(s\) chirps; known: .*num_chirps"),
     ({"radar": {"preset": "walk-77ghz", "num_samples": 100000}}, r"radar: .*ADC window"),
     ({"radar": []}, r"radar is an empty list"),
     ({"engine": "raster"}, r"engine 'raster' is not available; choose one of path"),

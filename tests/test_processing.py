@@ -18,7 +18,7 @@ from hypothesis import Phase, given, settings
 from hypothesis import strategies as st
 
 from sionnafmcw import SPEED_OF_LIGHT as C
-from sionnafmcw import RadarConfig
+from sionnafmcw import RadarConfig, array
 from sionnafmcw.echoes import target_direction
 import sionnafmcw.processing as sp
 
@@ -95,13 +95,13 @@ def test_axes_and_virtual_array():
     v = sp.velocity_axis(WALK)
     assert v[WALK.num_chirps // 2] == 0 and np.isclose(v[1] - v[0], WALK.velocity_resolution)
     assert np.isclose(v[0], -WALK.max_velocity)
-    p = sp.virtual_array(TI)
+    p = array.virtual_array(TI)
     assert p.shape == (12, 3) and np.allclose(p[1 * 4 + 2], TI.tx_positions[1] + TI.rx_positions[2])
-    idx, d = sp.uniform_azimuth_row(TI)  # z = 0 row: TX0 and TX2 -> 8 elements lambda/2 apart
+    idx, d = array.uniform_azimuth_row(TI)  # z = 0 row: TX0 and TX2 -> 8 elements lambda/2 apart
     assert len(idx) == 8 and np.allclose(p[idx, 2], 0) and np.isclose(d, TI.rx_positions[1, 1] - TI.rx_positions[0, 1])
-    assert np.allclose(sp.array_phase_centre(TI), p.mean(axis=0) / 2)
-    assert len(sp.uniform_azimuth_row(WALK)[0]) == 12
-    assert sp.has_elevation_aperture(TI) and not sp.has_elevation_aperture(WALK)
+    assert np.allclose(array.phase_centre(TI), p.mean(axis=0) / 2)
+    assert len(array.uniform_azimuth_row(WALK)[0]) == 12
+    assert array.has_elevation_aperture(TI) and not array.has_elevation_aperture(WALK)
 
 
 def test_window_normalisation_and_jacobsen():

@@ -102,6 +102,83 @@ def test_from_dict_names_unknown_and_missing_fields():
         RadarConfig.from_dict(data)
 
 
+# ============================================================================ RadarConfig.resolve
+def test_resolve_every_form_gives_the_same_radar(tmp_path):
+    preset = RadarConfig.preset("walk-77ghz")
+    assert RadarConfig.resolve(preset) is preset
+    assert RadarConfig.resolve("walk-77ghz") == preset
+    assert RadarConfig.resolve(preset.to_dict()) == preset
+    full = tmp_path / "full.json"
+    full.write_text(preset.to_json())
+    assert RadarConfig.resolve(full) == preset and RadarConfig.resolve(str(full)) == preset
+    changed = tmp_path / "changed.json"
+    changed.write_text(json.dumps({"preset": "walk-77ghz", "num_chirps": 64, "noise_figure": 10.0}))
+    expected = preset.replace(num_chirps=64, noise_figure=10.0, name="walk-77ghz*")
+    assert RadarConfig.resolve(changed) == expected
+    assert RadarConfig.resolve({"preset": "walk-77ghz", "num_chirps": 64, "noise_figure": 10.0}) == expected
+    assert RadarConfig.resolve({"preset": "walk-77ghz"}).name == "walk-77ghz"
+    assert RadarConfig.resolve({"preset": "walk-77ghz", "num_chirps": 64, "name": "mine"}).name == "mine"
+
+
+@pytest.mark.parametrize("content, match", [
+    ('{"preset": "walk-77ghz",\n "num_chirps": 64,,}', r"bad\.json: invalid JSON at line 2, column 19"),
+    ('[1, 2]', r"bad\.json: the radar file must hold a JSON object"),
+    ('{"preset": "walk-77ghz", "chirps": 8}', r"bad\.json: unknown RadarConfig field\(s\) chirps; known: .*num_chirps"),
+    ('{"preset": "awr9999"}', r"bad\.json: field 'preset' is 'awr9999'; choose one of .*walk-77ghz"),
+    ('{"preset": "walk-77ghz", "fc": "77 GHz"}', r"bad\.json: RadarConfig\.fc must be a number"),
+    ('{"preset": "walk-77ghz", "num_chirps": 6.5}', r"bad\.json: RadarConfig\.num_chirps must be an integer"),
+    ('{"preset": "walk-77ghz", "tx_positions": [[0, 0]]}', r"bad\.json: RadarConfig\.tx_positions must be a list of \[x, y, z\]"),
+    ('{"preset": "walk-77ghz", "tx_order": ["a"]}', r"bad\.json: RadarConfig\.tx_order must be a list of Tx indices"),
+    ('{"preset": "walk-77ghz", "num_samples": 100000}', r"bad\.json: RadarConfig: the ADC window"),
+])
+def test_resolve_file_errors_name_the_file_and_the_field(tmp_path, content, match):
+    path = tmp_path / "bad.json"
+    path.write_text(content)
+    with pytest.raises(RadarConfigError, match=match):
+        RadarConfig.resolve(path)
+
+
+def test_resolve_names_what_is_not_a_radar(tmp_path):
+    with pytest.raises(RadarConfigError, match=r"'awr9999' is neither a preset \(.*walk-77ghz.*\) nor an existing"):
+        RadarConfig.resolve("awr9999")
+    with pytest.raises(RadarConfigError, match=r"missing\.json: no such radar file"):
+        RadarConfig.resolve(str(tmp_path / "missing.json"))
+    with pytest.raises(RadarConfigError, match=r"is a directory"):
+        RadarConfig.resolve(tmp_path)
+    with pytest.raises(RadarConfigError, match=r"got int"):
+        RadarConfig.resolve(3)
+
+
+def test_resolve_reads_a_ti_cfg_through_the_io_package(tmp_path):
+    path = tmp_path / "profile.cfg"
+    path.write_text("% not a radar\n")
+    try:
+        import sionnafmcw.io.ti_cfg  # noqa: F401
+    except ImportError:
+        with pytest.raises(RadarConfigError, match=r"profile\.cfg: reading a TI mmWave \.cfg file needs sionnafmcw\.io\.ti_cfg"):
+            RadarConfig.resolve(path)
+    else:  # the reader exists: a file without profileCfg is an error that names the file
+        with pytest.raises(RadarConfigError, match=r"profile\.cfg"):
+            RadarConfig.resolve(path)
+
+
+# ============================================================================ virtual array
+def test_virtual_array_and_phase_centre_properties():
+    from sionnafmcw import array
+    from sionnafmcw.geometry import rotation_matrix, world_phase_centre
+
+    radar = RadarConfig.preset("ti-awr1843boost")
+    p = radar.virtual_array
+    assert p.shape == (radar.num_tx * radar.num_rx, 3)
+    # tx-major: element m*N + n is tx m + rx n
+    assert np.allclose(p[1 * radar.num_rx + 2], radar.tx_positions[1] + radar.rx_positions[2])
+    assert np.allclose(radar.phase_centre, p.mean(axis=0) / 2)
+    assert np.allclose(array.phase_centre(radar), radar.phase_centre)
+    position, orientation = np.array([1.0, 2.0, 0.5]), np.array([0.3, 0.0, 0.0])
+    assert np.allclose(world_phase_centre(radar, position, orientation),
+                       position + rotation_matrix(orientation) @ radar.phase_centre)
+
+
 def test_libllvm_found_and_configured(tmp_path):
     path = find_libllvm()
     assert path is not None and os.path.isfile(path)

@@ -221,37 +221,34 @@ def _read(spec) -> tuple[dict, str]:
 
 
 def _radar_entry(entry, where: str) -> tuple[str, dict, object]:
-    """``(name, RadarConfig dict, canonical entry)`` of one radar entry."""
+    """``(name, RadarConfig dict, canonical entry)`` of one radar entry (read by :meth:`RadarConfig.resolve`).
+
+    A preset with changes keeps the preset's ``name`` unless ``name`` is one of the changes; its
+    label lists the changes, e.g. ``walk-77ghz(num_chirps=64)``.
+    """
+    if isinstance(entry, str) and entry not in RadarConfig.presets():
+        raise SpecError(f"{where}: unknown radar preset {entry!r}; choose one of "
+                        f"{', '.join(RadarConfig.presets())}, or give a RadarConfig dict")
+    if not isinstance(entry, (str, dict)):
+        raise SpecError(f"{where} must be a preset name, a dict ({{'preset': name, field: value}} or a full RadarConfig "
+                        f"dict) or a list of these, got {type(entry).__name__}")
+    if isinstance(entry, dict) and "preset" in entry:
+        name = entry["preset"]
+        changes = {k: v for k, v in entry.items() if k != "preset"}
+        try:
+            config = RadarConfig.resolve({"name": name, **entry} if isinstance(name, str) else entry)
+        except RadarConfigError as exc:
+            raise SpecError(f"{where}: {exc}") from exc
+        label = name
+        if changes:
+            label += "(" + ",".join(f"{k}={changes[k]}" for k in sorted(changes)) + ")"
+        return label, config.to_dict(), {"preset": name, **{k: _plain(v) for k, v in sorted(changes.items())}}
     try:
-        if isinstance(entry, str):
-            if entry not in RadarConfig.presets():
-                raise SpecError(f"{where}: unknown radar preset {entry!r}; choose one of "
-                                f"{', '.join(RadarConfig.presets())}, or give a RadarConfig dict")
-            return entry, RadarConfig.preset(entry).to_dict(), entry
-        if isinstance(entry, dict):
-            if "preset" in entry:
-                changes = {k: v for k, v in entry.items() if k != "preset"}
-                name = entry["preset"]
-                if name not in RadarConfig.presets():
-                    raise SpecError(f"{where}.preset: unknown radar preset {name!r}; choose one of "
-                                    f"{', '.join(RadarConfig.presets())}")
-                base = RadarConfig.preset(name)
-                fields = set(base.to_dict())
-                unknown = sorted(set(changes) - fields)
-                if unknown:
-                    raise SpecError(f"{where}: {', '.join(unknown)} is not a RadarConfig field; known fields: "
-                                    f"{', '.join(sorted(fields))}")
-                config = base.replace(**changes)
-                label = name
-                if changes:
-                    label += "(" + ",".join(f"{k}={changes[k]}" for k in sorted(changes)) + ")"
-                return label, config.to_dict(), {"preset": name, **{k: _plain(v) for k, v in sorted(changes.items())}}
-            config = RadarConfig.from_dict(entry)
-            return config.name, config.to_dict(), config.to_dict()
-    except (RadarConfigError, TypeError) as exc:
+        config = RadarConfig.resolve(entry)
+    except RadarConfigError as exc:
         raise SpecError(f"{where}: {exc}") from exc
-    raise SpecError(f"{where} must be a preset name, a dict ({{'preset': name, field: value}} or a full RadarConfig "
-                    f"dict) or a list of these, got {type(entry).__name__}")
+    canonical = entry if isinstance(entry, str) else config.to_dict()
+    return config.name, config.to_dict(), canonical
 
 
 def _draw(scenario: str, key: str, param, raw, where: str) -> Draw:

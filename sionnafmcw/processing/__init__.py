@@ -7,8 +7,8 @@ radial velocity :math:`v_r` (m/s, positive receding) on the sweep-centre wavelen
 :math:`\lambda_{mid}`; angles are radians, azimuth positive towards +y, elevation towards +z.
 
 Modules: :mod:`.windows` (unit-sum windows), :mod:`.fast_time` (range), :mod:`.clutter`,
-:mod:`.slow_time` (Doppler), :mod:`.rdmap` (range-Doppler), :mod:`.mimo` (virtual array, TDM
-phase), :mod:`.angle` (angle FFT, Bartlett, range-azimuth), :mod:`.cfar`, :mod:`.peaks`
+:mod:`.slow_time` (Doppler), :mod:`.rdmap` (range-Doppler), :mod:`.mimo` (virtual channels, TDM
+phase; the array geometry itself is :mod:`sionnafmcw.array`), :mod:`.angle` (angle FFT, Bartlett, range-azimuth), :mod:`.cfar`, :mod:`.peaks`
 (sub-bin interpolation), :mod:`.micro_doppler` (Doppler track, spectrogram),
 :mod:`.point_cloud`.
 """
@@ -19,13 +19,17 @@ from .cfar import CFARResult, ca_cfar_2d, ca_cfar_factor, cfar_footprint, os_cfa
 from .clutter import remove_static_clutter
 from .fast_time import range_axis, range_doppler_coupling, range_fft
 from .micro_doppler import DopplerTrack, MicroDopplerSpectrogram, doppler_time, micro_doppler_spectrogram
-from .mimo import (array_phase_centre, has_elevation_aperture, tdm_phase_compensation, uniform_azimuth_row,
-                   virtual_array, virtual_channels)
+from .mimo import tdm_phase_compensation, virtual_channels
 from .peaks import interpolate_peak, local_maxima, parabolic_offset, uniform_axis_value
 from .point_cloud import PointCloud, detections_to_point_cloud
 from .rdmap import RangeDopplerMap, range_doppler, range_doppler_map
 from .slow_time import doppler_fft, velocity_axis
 from .windows import window_weights
+
+# transitional alias (issue 10): removed at integration (the array geometry is sionnafmcw.array)
+from ..array import has_elevation_aperture, uniform_azimuth_row, virtual_array  # noqa: E402
+# transitional alias (issue 10): removed at integration (sionnafmcw.array.phase_centre)
+from ..array import phase_centre as array_phase_centre  # noqa: E402
 
 __all__ = [
     "AngleSpectrum", "CFARResult", "DopplerTrack", "MicroDopplerSpectrogram", "PointCloud", "RangeAzimuthMap",

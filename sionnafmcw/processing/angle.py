@@ -1,6 +1,6 @@
 r"""Angle estimation on the virtual array.
 
-Steering vector of virtual element :math:`v` at :math:`\mathbf p_v` (:func:`virtual_array`):
+Steering vector of virtual element :math:`v` at :math:`\mathbf p_v` (:func:`sionnafmcw.array.virtual_array`):
 
 .. math::
     a_v(\phi, \theta_e) = e^{-j2\pi\,\mathbf p_v\cdot\hat{\mathbf u}(\phi,\theta_e)/\lambda_{mid}},\qquad
@@ -8,7 +8,7 @@ Steering vector of virtual element :math:`v` at :math:`\mathbf p_v` (:func:`virt
 
 azimuth :math:`\phi` positive towards :math:`+y`, elevation :math:`\theta_e` towards :math:`+z`.
 
-Angle FFT (uniform row, :func:`uniform_azimuth_row`: elements :math:`y_i = y_0 + i d`). The
+Angle FFT (uniform row, :func:`sionnafmcw.array.uniform_azimuth_row`: elements :math:`y_i = y_0 + i d`). The
 beamformer matched to :math:`a` is an inverse-sign DFT over the row,
 
 .. math::
@@ -38,7 +38,8 @@ from scipy import optimize
 
 from ..echoes import target_direction
 from .fast_time import range_axis
-from .mimo import has_elevation_aperture, tdm_phase_compensation, uniform_azimuth_row, virtual_array, virtual_channels
+from ..array import has_elevation_aperture, uniform_azimuth_row, virtual_array
+from .mimo import tdm_phase_compensation, virtual_channels
 from .rdmap import range_doppler
 from .slow_time import velocity_axis
 from .windows import window_weights

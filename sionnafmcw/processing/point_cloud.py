@@ -14,7 +14,7 @@ Chain for one CPI:
    aperture (otherwise elevation is taken as 0 for the coordinates and reported as ``None``);
 5. Cartesian position in the radar frame :math:`\mathbf c + R\,\hat{\mathbf u}(\phi, \theta_e)`
    (boresight +x, azimuth towards +y, elevation towards +z), at the CPI time of the range peak;
-   ranges are measured from the array phase centre :math:`\mathbf c` (:func:`array_phase_centre`).
+   ranges are measured from the array phase centre :math:`\mathbf c` (:func:`sionnafmcw.array.phase_centre`).
 
 ``snr`` is :math:`10\log_{10}(P/\hat\sigma^2)` with the CFAR's local noise estimate.
 """
@@ -29,7 +29,8 @@ from ..echoes import target_direction
 from .angle import estimate_direction
 from .cfar import ca_cfar_2d, os_cfar_2d
 from .fast_time import range_axis, range_doppler_coupling
-from .mimo import array_phase_centre, has_elevation_aperture, tdm_phase_compensation, virtual_channels
+from ..array import has_elevation_aperture, phase_centre
+from .mimo import tdm_phase_compensation, virtual_channels
 from .peaks import interpolate_peak, local_maxima, uniform_axis_value
 from .rdmap import range_doppler
 from .slow_time import velocity_axis
@@ -124,7 +125,7 @@ def detections_to_point_cloud(cube, radar, cfar: str = "ca", guard=(2, 2), train
         a, e, _ = estimate_direction(virtual_channels(snap, 0), radar, elevation=use_el)
         az[j] = a
         el[j] = 0.0 if e is None else e
-    xyz = array_phase_centre(radar) + rng[:, None] * target_direction(az, el) if di.size else np.zeros((0, 3))
+    xyz = phase_centre(radar) + rng[:, None] * target_direction(az, el) if di.size else np.zeros((0, 3))
     p, noise = power[di, ri], res.noise[di, ri]
     with np.errstate(divide="ignore"):
         snr = 10.0 * np.log10(p / noise)
