@@ -15,15 +15,20 @@ $(VENV)/.installed: pyproject.toml scripts/setup.sh
 .venv-blender/.installed: scripts/setup_blender.sh
 	bash scripts/setup_blender.sh
 
+# OpenRadar (openradar 1.0.1, needs numpy<1.24) for the TI interoperability test: its own
+# environment; it reads the DCA1000 captures sionnafmcw.io writes
+.venv-openradar/.installed: scripts/setup_openradar.sh
+	bash scripts/setup_openradar.sh
+
 setup: $(VENV)/.installed
 
 demo: $(VENV)/.installed
 	$(PY) validation/circle_walk.py --engine path --out out/circle_walk
 
-test: $(VENV)/.installed .venv-blender/.installed
+test: $(VENV)/.installed .venv-blender/.installed .venv-openradar/.installed
 	$(PY) -m pytest -m "not slow" -q $(PYTEST_ARGS)
 
-test-slow: $(VENV)/.installed .venv-blender/.installed
+test-slow: $(VENV)/.installed .venv-blender/.installed .venv-openradar/.installed
 	$(PY) -m pytest -m slow -q $(PYTEST_ARGS)
 
 clean:
