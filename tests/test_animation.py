@@ -1,4 +1,4 @@
-"""Animation directories (NOTES 3a): loading, checks with clear errors, geometry queries, PLY I/O."""
+"""Animation directories (layout: :mod:`sionnafmcw.animation`): loading, checks with clear errors, geometry queries, PLY I/O."""
 
 from __future__ import annotations
 
@@ -226,7 +226,7 @@ def test_known_custom_radio_material_and_skin_plugin(tmp_path):
     mats = {"mat-skin": ("radio-material", {}), "mat-skin-wet": ("skin-radio-material", {"tissue": "wet"})}
     root = write_plate_animation(tmp_path / "m", materials=mats, material="mat-skin")
     anim = load_animation(root)
-    assert anim.scene(0).shapes["plate"].material.custom == "skin"
+    assert anim.frame_xml(0).shapes["plate"].material.custom == "skin"
     mats["mat-skin-wet"] = ("skin-radio-material", {"tissue": "soggy"})
     root = write_plate_animation(tmp_path / "n", materials=mats, material="mat-skin-wet")
     with pytest.raises(AnimationError, match="tissue 'soggy'"):
@@ -329,8 +329,8 @@ def test_frame_xml_is_reparsed_per_frame_and_shared_meshes(tmp_path):
     fv, ff = plate_mesh((0, 0, -1), size=(4, 4), normal_axis=2)
     root = write_plate_animation(tmp_path / "s", static=[("floor", fv, ff, "mat-itu_metal")])
     anim = load_animation(root)
-    assert set(anim.scene(0).shapes) == {"plate", "floor"}
-    assert anim.scene(0).shapes["floor"].filename == anim.scene(2).shapes["floor"].filename
+    assert set(anim.frame_xml(0).shapes) == {"plate", "floor"}
+    assert anim.frame_xml(0).shapes["floor"].filename == anim.frame_xml(2).shapes["floor"].filename
     np.testing.assert_allclose(anim.object_positions(1, names=["floor"])["floor"], [0, 0, -1], atol=1e-6)
     # a frame XML can be parsed on its own
     assert set(parse_frame_xml(anim.frames[0].xml).shapes) == {"plate", "floor"}

@@ -131,7 +131,7 @@ def test_moving_plate(tmp_path, room):
         tri = mesh.vertices[mesh.faces[0]]
         n = np.cross(tri[1] - tri[0], tri[2] - tri[0])
         assert n @ u < 0  # faces the radar
-    shapes = anim.scene(0).shapes
+    shapes = anim.frame_xml(0).shapes
     assert ("wall_x1" in shapes) == room
     if room:
         assert {s.material.itu_type for s in shapes.values()} == {"metal", "concrete", "floorboard", "plasterboard"}
@@ -163,9 +163,9 @@ def test_corner_reflectors(tmp_path):
 def test_empty_room(tmp_path):
     anim = load_animation(scenes.build("empty_room", tmp_path / "r", length=7.0, width=5.0, num_frames=2))
     assert anim.object_names == []
-    assert len(anim.scene(0).shapes) == 6
-    lo = np.min([anim.mesh(0, n).vertices.min(0) for n in anim.scene(0).shapes], axis=0)
-    hi = np.max([anim.mesh(0, n).vertices.max(0) for n in anim.scene(0).shapes], axis=0)
+    assert len(anim.frame_xml(0).shapes) == 6
+    lo = np.min([anim.mesh(0, n).vertices.min(0) for n in anim.frame_xml(0).shapes], axis=0)
+    hi = np.max([anim.mesh(0, n).vertices.max(0) for n in anim.frame_xml(0).shapes], axis=0)
     assert np.allclose(lo, [-0.1, -2.6, -0.1]) and np.allclose(hi, [7.1, 2.6, 3.1])
     anim.check_frequency(77e9)
 

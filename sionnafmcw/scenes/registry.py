@@ -1,7 +1,7 @@
 r"""The scenario registry: names, typed parameters, and an atomic ``build``.
 
 A scenario is a function ``builder(out: Path, **params) -> None`` that writes an animation
-directory (NOTES section 3a) into ``out`` (an empty directory it may fill), registered with its
+directory (layout: :mod:`sionnafmcw.animation`) into ``out`` (an empty directory it may fill), registered with its
 parameters::
 
     @register("moving_plate", "A metal plate moving along the radar's line of sight.", {
@@ -10,8 +10,8 @@ parameters::
 
 :func:`build` checks the parameters (unknown name or ill-typed value -> :class:`ValueError` that
 names it and lists the valid ones), fills in the defaults, writes into a temporary sibling of
-``out`` and renames it to ``out`` at the end, so an interrupted build never leaves a
-half-written directory at ``out``. It then records ``{"name", "parameters"}`` under the
+``out`` and renames it to ``out`` at the end (:func:`sionnafmcw.fs.atomic_directory`), so an
+interrupted build never leaves a half-written directory at ``out``. It then records ``{"name", "parameters"}`` under the
 ``"scenario"`` key of ``animation.json`` (the loader ignores keys it does not know).
 
 Parameter types are ``int``, ``float``, ``bool``, ``str`` and ``tuple`` (a tuple of floats, e.g.
@@ -26,12 +26,11 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import shutil
-import uuid
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable
+
+from ..fs import atomic_directory
 
 TYPES = (int, float, bool, str, tuple)
 _TYPE_NAMES = {int: "int", float: "float", bool: "bool", str: "str", tuple: "tuple of floats"}
@@ -250,29 +249,12 @@ def build(name: str, out, overwrite: bool = False, **params) -> Path:
     if out.exists() and not overwrite:
         if not out.is_dir() or any(out.iterdir()):
             raise FileExistsError(f"{out} exists and is not empty; pass overwrite=True to replace it")
-    parent = out.parent if str(out.parent) else Path(".")
-    parent.mkdir(parents=True, exist_ok=True)
-    tmp = parent / f".{out.name}.building-{uuid.uuid4().hex[:8]}"
-    tmp.mkdir()
-    try:
+    with atomic_directory(out, replace=overwrite) as tmp:
         sc.builder(tmp, **values)
         manifest_path = tmp / "animation.json"
         manifest = json.loads(manifest_path.read_text())
         manifest["scenario"] = {"name": name, "parameters": {k: _jsonable(v) for k, v in values.items()}}
         manifest_path.write_text(json.dumps(manifest, indent=1))
-        old = None
-        if out.exists():
-            if out.is_dir() and not any(out.iterdir()):
-                out.rmdir()
-            else:
-                old = parent / f".{out.name}.old-{uuid.uuid4().hex[:8]}"
-                os.rename(out, old)
-        os.rename(tmp, out)
-        if old is not None:
-            shutil.rmtree(old) if old.is_dir() else old.unlink()
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
     return out
 
 

@@ -1,7 +1,7 @@
 r"""A closed rectangular room: floor, ceiling and four walls as 10 cm thick boxes.
 
 The inner space is the axis-aligned box from ``lo`` to ``hi`` (m, world, floor at ``lo[2]``).
-Materials are ITU-R P.2040 materials Sionna defines at 77 GHz (NOTES section 4): walls
+Materials are ITU-R P.2040 materials Sionna defines at 77 GHz (:data:`~.writer.ITU_AT_77GHZ`): walls
 ``concrete`` (or ``plasterboard``), floor ``floorboard``, ceiling ``plasterboard`` (or
 ``ceiling_board``), each with a ``scattering_coefficient`` for surface roughness. The room makes
 the static clutter and the body-floor / body-wall multipath an indoor radar sees.

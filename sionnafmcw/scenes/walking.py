@@ -1,4 +1,5 @@
-r"""Walking-person scenarios: ``circle_walk`` (the paper's, NOTES section 5) and ``straight_walk``.
+r"""Walking-person scenarios: ``circle_walk`` (the paper's walking person, measured by
+:mod:`sionnafmcw.validation.circle_walk`) and ``straight_walk``.
 
 The person is a :class:`~.body.WalkingPerson` (Boulic-Thalmann gait, :mod:`.gait`; segment
 meshes and kinematic chain, :mod:`.body`), every segment a separate skin object with per-vertex

@@ -1,4 +1,4 @@
-r"""Writing animation directories (NOTES section 3a) frame by frame, and the radio materials.
+r"""Writing animation directories (layout: :mod:`sionnafmcw.animation`) frame by frame, and the radio materials.
 
 :class:`AnimationWriter` keeps the layout every builder shares: static meshes are written once
 to ``meshes/<name>.ply`` and referenced by every frame; a moving object gets
@@ -11,7 +11,8 @@ built-in one and drop the ``scattering_coefficient``):
 
 * ``refl-metal``: ITU ``metal`` (perfectly conducting to within ITU-R P.2040 at 77 GHz);
 * ``room-concrete``, ``room-plasterboard``, ``room-floorboard``, ``room-ceiling_board``: ITU
-  materials valid at 77 GHz (NOTES section 4), with a ``scattering_coefficient`` (rough walls);
+  materials valid at 77 GHz (:data:`ITU_AT_77GHZ`; ITU-R P.2040 defines the others only below
+  40 GHz, see :func:`sionnafmcw.materials.check_material_frequency`), with a ``scattering_coefficient`` (rough walls);
 * ``mat-skin``: a ``radio-material`` placeholder that the engines turn into Gabriel's dry skin
   (:mod:`sionnafmcw.materials`) at the scene frequency, with a ``scattering_coefficient``: a
   faceted smooth body returns few purely specular echoes (see :mod:`sionnafmcw.engines.path`).
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..animation import RadarPose, scene_xml, write_animation, write_ply
+from ..animation import RadarPose, write_animation, write_frame_xml, write_ply
 
 SKIN = "mat-skin"
 METAL = "refl-metal"
@@ -94,7 +95,7 @@ class AnimationWriter:
         for name in self.static_objects:
             objects[name] = np.zeros(3)
         xml = f"frames/{i:04d}.xml"
-        (self.root / xml).write_text(scene_xml(shapes + self._static, self.materials))
+        write_frame_xml(self.root / xml, shapes + self._static, self.materials)
         self._frames.append({"xml": xml, "objects": objects})
         return i
 
