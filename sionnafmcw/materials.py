@@ -68,16 +68,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._llvm import configure_llvm
 from .constants import VACUUM_PERMITTIVITY
-
-configure_llvm()
-
-import mitsuba as mi  # noqa: E402
-import sionna.rt  # noqa: E402,F401  (sets the Mitsuba variant and registers Sionna's plugins)
-from sionna.rt.constants import DEFAULT_THICKNESS  # noqa: E402
-from sionna.rt.radio_materials.itu import ITU_MATERIALS_PROPERTIES  # noqa: E402
-from sionna.rt.radio_materials.radio_material import RadioMaterial  # noqa: E402
+from .sionna_rt import DEFAULT_THICKNESS, ITU_MATERIALS_PROPERTIES, ITURadioMaterial, RadioMaterial, mi
 
 class MaterialError(ValueError):
     """A radio material that cannot be used; the message names it."""
@@ -269,8 +261,6 @@ def check_itu_frequency(itu_type: str, frequency: float, where: str = "") -> Non
 
 def check_scene_materials(scene, frequency: float | None = None) -> None:
     """Check every ITU / skin material of a loaded Sionna scene at ``frequency`` (default: the scene's)."""
-    from sionna.rt import ITURadioMaterial
-
     frequency = float(scene.frequency[0] if frequency is None else frequency)
     for name, mat in scene.radio_materials.items():
         if isinstance(mat, ITURadioMaterial):

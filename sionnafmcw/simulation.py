@@ -15,40 +15,25 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .geometry import phase_centre, radial_velocity
+from . import __version__, engines
+from .engines import Engine
+from .geometry import radial_velocity, world_phase_centre
 from .radar import RadarConfig
 from .store import RunStore, open_run
 from .synthesis import synthesize
 
-ENGINES = ("path", "pixel")
 
-
-def _resolve_radar(radar) -> RadarConfig:
-    if isinstance(radar, RadarConfig):
-        return radar
-    if isinstance(radar, str):
-        return RadarConfig.preset(radar)
-    if isinstance(radar, dict):
-        return RadarConfig.from_dict(radar)
-    raise TypeError(f"simulate: radar must be a RadarConfig, a preset name or a dict, got {type(radar).__name__}")
-
-
-def make_engine(engine, **options):
-    """An engine instance from a name in :data:`ENGINES` (or the instance itself)."""
-    if not isinstance(engine, str):
-        if not hasattr(engine, "echoes"):
-            raise TypeError("simulate: engine must be a name or an object with an echoes(animation, radar, frame) method")
-        return engine
-    if engine == "path":
-        from .engines.path import PathEngine
-
-        return PathEngine(**options)
-    if engine == "pixel":
-        from .engines.pixel import PixelEngine
-
-        return PixelEngine(**options)
-    raise ValueError(f"simulate: engine={engine!r} is unknown; choose one of {', '.join(ENGINES)}")
+def _engine(engine, engine_options: dict | None) -> Engine:
+    """The engine of a :func:`simulate` call: a registry name (:mod:`sionnafmcw.engines`) or an :class:`Engine`."""
+    if isinstance(engine, str):
+        return engines.create(engine, **(engine_options or {}))
+    if not isinstance(engine, Engine):
+        raise TypeError(f"simulate: engine must be a registered engine name ({', '.join(engines.names())}) or a "
+                        f"sionnafmcw.engines.Engine, got {type(engine).__name__}")
+    if engine_options:
+        raise TypeError(f"simulate: engine_options ({', '.join(engine_options)}) apply to an engine given by name; "
+                        f"{type(engine).__name__} is already built")
+    return engine
 
 
 def _frame_indices(frames, num_frames: int) -> list[int]:
@@ -66,32 +51,33 @@ def _frame_indices(frames, num_frames: int) -> list[int]:
 def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progress=True,
              radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None,
              leakage_db: float | None = None):
-    """Simulate ``frames`` of ``animation`` and write the run store ``out``; returns it as an xarray Dataset.
+    """Simulate ``frames`` of ``animation`` and write the run store ``out``; returns it as a :class:`~sionnafmcw.store.Run`.
 
     Parameters
     ----------
     animation : Animation or path of an animation directory
-    radar : RadarConfig, preset name or dict
-    engine : ``"path"``, ``"pixel"`` or an engine object with ``echoes(animation, radar, frame, radar_pose=...)``
+    radar : anything :meth:`RadarConfig.resolve` takes (a RadarConfig, a preset name, a dict, a .json or TI .cfg path)
+    engine : a registered engine name (:func:`sionnafmcw.engines.names`: ``"path"``, ``"pixel"``, ...) or an
+        :class:`~sionnafmcw.engines.Engine` instance
     out : path of the Zarr store; an existing store with the same settings is resumed
     frames : iterable of frame indices or a slice (default: all); the store always spans all frames
     radar_pose : RadarPose overriding the animation's
     seed : noise seed; frame ``n`` uses ``numpy.random.default_rng([seed, n])``
     noise : add receiver thermal noise
-    engine_options : keyword arguments for the engine when ``engine`` is a name
+    engine_options : keyword options of the engine when ``engine`` is a name (:func:`sionnafmcw.engines.options`)
     leakage_db : direct Tx-Rx coupling (dB) added to every frame (:meth:`Echoes.leakage`); None: none
     """
     from .animation import Animation, load_animation
 
     if not isinstance(animation, Animation):
         animation = load_animation(animation)
-    radar = _resolve_radar(radar)
+    radar = RadarConfig.resolve(radar)
     radar.validate(frame_period=animation.frame_period)
     pose = radar_pose if radar_pose is not None else animation.radar_pose
     if pose is None:
         raise ValueError(f"simulate: {animation.path} has no radar pose in animation.json; pass radar_pose=")
-    engine_obj = make_engine(engine, **(engine_options or {}))
-    settings = engine_obj.settings() if hasattr(engine_obj, "settings") else {"engine": type(engine_obj).__name__}
+    engine_obj = _engine(engine, engine_options)
+    settings = engine_obj.settings()
     indices = _frame_indices(frames, animation.num_frames)
 
     names = animation.object_names
@@ -104,7 +90,7 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     )
     done = store.done()
     todo = [f for f in indices if not done[f]]
-    centre = phase_centre(radar, pose.position, pose.orientation)
+    centre = world_phase_centre(radar, pose.position, pose.orientation)
 
     iterator = todo
     if progress and todo:
@@ -125,3 +111,10 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
             positions = velocities = radial = None
         store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial)
     return open_run(out)
+
+
+def __getattr__(name):
+    # ENGINES: the registered engine names, for callers written before the registry (issue 10)
+    if name == "ENGINES":
+        return tuple(engines.names())
+    raise AttributeError(f"module 'sionnafmcw.simulation' has no attribute {name!r}")

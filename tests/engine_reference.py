@@ -42,7 +42,7 @@ def compute(workdir) -> dict:
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
     from sionnafmcw.scenes import registry
-    from sionnafmcw.simulation import make_engine
+    from sionnafmcw import engines
 
     radar = RadarConfig.preset(RADAR)
     out = {}
@@ -50,7 +50,7 @@ def compute(workdir) -> dict:
         path = registry.build(scenario, Path(workdir) / case, overwrite=True, **params)
         animation = load_animation(path)
         for k, (name, options) in enumerate(ENGINES[case]):
-            engine = make_engine(name, track_kernels=False, **options)
+            engine = engines.create(name, track_kernels=False, **options)
             for frame in range(animation.num_frames):
                 e = engine.echoes(animation, radar, frame)
                 key = f"{case}/{name}{k}/f{frame}"

@@ -64,84 +64,52 @@ normals of a 10k-triangle body are some 60 mrad apart. Give skin a ``scattering_
 
 from __future__ import annotations
 
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._llvm import configure_llvm
-
-configure_llvm()
-
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
-from sionna.rt import AntennaArray, PathSolver, Receiver, Transmitter  # noqa: E402
-from sionna.rt.antenna_pattern import antenna_pattern_registry  # noqa: E402
-from sionna.rt.constants import INVALID_SHAPE, InteractionType  # noqa: E402
-import sionna.rt.path_solvers.image_method as _image_method  # noqa: E402
-import sionna.rt.path_solvers.sb_candidate_generator as _candidate_generator  # noqa: E402
-import sionna.rt.path_solvers.sb_deterministic as _deterministic  # noqa: E402
+from ..animation import Animation, RadarPose
+from ..constants import SPEED_OF_LIGHT
+from ..echoes import Echoes
+from ..sionna_rt import (
+    INVALID_SHAPE, AntennaArray, InteractionType, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi,
+    set_min_segment_length, solve_fields, trace_candidates,
+)
+from .base import Engine, EngineError
+from .loaded_scene import barycentric_weights, interpolate
 
 #: Minimum path segment length (m) for a radar. Sionna's 1 cm (``MIN_SEGMENT_LENGTH``, meant for
 #: communication links) drops every retro-reflected path of a radar: a trihedral's or dihedral's
 #: image-method path between Tx and Rx elements a distance d apart passes within ~d/2 of the
 #: corner, so its segments between bounces are millimetres long (measured: the triple bounce of a
 #: 0.3 m trihedral at 4 m vanishes for Tx-Rx offsets below ~1 cm and is found at 2 mm with
-#: 0.1 mm). Set at import, before any kernel is compiled; it applies to every solver in the process.
+#: 0.1 mm). Set when this module is imported, before any path is solved; it applies to every
+#: solver in the process (:func:`sionnafmcw.sionna_rt.set_min_segment_length`, which fails loudly
+#: when Sionna no longer has the constant).
 RADAR_MIN_SEGMENT_LENGTH = 1e-4
-for _module in (_image_method, _candidate_generator, _deterministic):
-    if hasattr(_module, "MIN_SEGMENT_LENGTH"):
-        _module.MIN_SEGMENT_LENGTH = RADAR_MIN_SEGMENT_LENGTH
-
-from ..animation import Animation, RadarPose  # noqa: E402
-from ..constants import SPEED_OF_LIGHT  # noqa: E402
-from ..echoes import Echoes  # noqa: E402
-from .frame_scene import FrameScene, barycentric_weights, interpolate, resolve_pose, track_kernels  # noqa: E402
-from .scene_loading import SceneLoadError, load_radar_scene  # noqa: E402
+set_min_segment_length(RADAR_MIN_SEGMENT_LENGTH)
 
 
-class PathEngineError(ValueError):
+class PathEngineError(EngineError):
     """The path engine cannot run this animation / radar combination; the message says why."""
 
 
 @dataclass
-class FrameStats:
-    """What one :meth:`PathEngine.echoes` call did.
-
-    ``kernels_launched``: Dr.Jit JIT kernels run; ``kernels_compiled``: those found neither in
-    Dr.Jit's in-memory nor on-disk cache (so compiled by LLVM); ``new_kernel_hashes``: kernels
-    this engine had not launched before (independent of the caches: the measure of recompilation).
-    """
-
-    frame: int
-    seconds: float
-    num_paths: int
-    kernels_launched: int
-    kernels_compiled: int
-    new_kernel_hashes: int
-    reloaded: bool
-
-
-@dataclass
 class _State:
-    key: tuple
-    geometry: FrameScene          # scene, parameters and per-object geometry of the current frame
+    """Per-scene state of the path engine: the radar's devices and what is set in Sionna."""
+
     tx: object
     rx: object
     names_by_id: dict
     velocities: dict = field(default_factory=dict)  # name -> velocity currently set in Sionna
     pose: tuple | None = None
 
-    @property
-    def scene(self):
-        return self.geometry.scene
-
 
 def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
 
 
-class PathEngine:
+class PathEngine(Engine):
     """Sionna RT path solver turned into per-element radar echoes.
 
     Parameters
@@ -166,8 +134,12 @@ class PathEngine:
         Sionna's deterministic candidate generator (same paths in the same order on every run, a
         little more memory). With the default, a fixed seed gives the same rays, but the order
         of the paths, and rarely a path near a triangle edge, can differ between runs.
+
+    :attr:`stats` figures: ``num_paths`` (valid paths of the frame, all element pairs).
     """
 
+    name = "path"
+    FIXED_SETTINGS = {"los": False, "synthetic_array": False}
     LABELS = ("first", "last", "moving")
 
     def __init__(self, max_depth: int = 2, samples_per_src: int = 100_000, max_num_paths_per_src: int = 1_000_000,
@@ -183,6 +155,7 @@ class PathEngine:
                     f"PathEngine: {name} must be an integer >= {low}, got {value!r}"
                     + (" (with los=False a depth-0 radar sees nothing)" if name == "max_depth" else "")
                 )
+        super().__init__(track_kernels=track_kernels)
         self.max_depth = int(max_depth)
         self.samples_per_src = int(samples_per_src)
         self.max_num_paths_per_src = int(max_num_paths_per_src)
@@ -193,42 +166,19 @@ class PathEngine:
         self.seed = int(seed)
         self.vertex_doppler = bool(vertex_doppler)
         self.label = label
-        self.track_kernels = bool(track_kernels)
         self.deterministic = bool(deterministic)
         self._solver = PathSolver(deterministic=self.deterministic)
-        self._state: _State | None = None
-        self._seen_hashes: set = set()
-        self.stats: list[FrameStats] = []
 
-    # ------------------------------------------------------------------ description
-    def settings(self) -> dict:
-        """The engine settings as a plain dict (for run stores)."""
-        return {"engine": "path", "max_depth": self.max_depth, "samples_per_src": self.samples_per_src,
+    def _settings(self) -> dict:
+        return {"max_depth": self.max_depth, "samples_per_src": self.samples_per_src,
                 "max_num_paths_per_src": self.max_num_paths_per_src, "diffuse": self.diffuse,
                 "specular": self.specular, "refraction": self.refraction, "diffraction": self.diffraction,
                 "seed": self.seed, "deterministic": self.deterministic, "vertex_doppler": self.vertex_doppler,
-                "label": self.label, "los": False, "synthetic_array": False}
+                "label": self.label}
 
-    def __repr__(self) -> str:
-        return "PathEngine(" + ", ".join(f"{k}={v!r}" for k, v in self.settings().items() if k != "engine") + ")"
-
-    @property
-    def last_stats(self) -> FrameStats | None:
-        return self.stats[-1] if self.stats else None
-
-    @property
-    def scene(self):
-        """The Sionna scene currently loaded (None before the first frame)."""
-        return None if self._state is None else self._state.scene
-
-    # ------------------------------------------------------------------ set-up
-    def _load(self, animation: Animation, radar, key) -> _State:
-        animation.check_frequency(radar.fc)
-        xml = animation.frames[0].xml
-        try:
-            scene = load_radar_scene(xml, radar.fc)
-        except SceneLoadError as err:
-            raise PathEngineError(str(err)) from err.__cause__
+    # ------------------------------------------------------------------ hooks
+    def _load(self, scene, animation: Animation, radar) -> _State:
+        """The radar's Tx and Rx (its exact element layout) and a velocity parameter per object."""
         wavelength = float(scene.wavelength[0]) if hasattr(scene.wavelength, "__len__") else float(scene.wavelength)
         pattern = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
         pattern_rx = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
@@ -248,20 +198,27 @@ class PathEngine:
         for name, obj in scene.objects.items():
             names_by_id[int(obj.object_id)] = name
             obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
-        return _State(key, FrameScene.load(scene, animation, PathEngineError), tx, rx, names_by_id)
+        return _State(tx, rx, names_by_id)
 
-    @staticmethod
-    def _update_geometry(animation: Animation, frame: int, state: _State) -> None:
-        if state.geometry.update_geometry(animation, frame):
-            state.scene.scene_geometry_updated()
+    def _geometry_changed(self) -> None:
+        self._loaded.scene.scene_geometry_updated()
 
-    def _update_velocities(self, animation: Animation, frame: int, state: _State) -> dict:
+    def _frame_echoes(self, animation: Animation, radar, frame: int, pose: RadarPose):
+        self._set_pose(pose)
+        velocities = self._update_velocities(animation, frame)
+        buf, src_positions, tgt_positions = self._trace(self._loaded.scene)
+        echoes, num_paths = self._to_echoes(buf, src_positions, tgt_positions, velocities, radar)
+        return echoes, {"num_paths": num_paths}
+
+    # ------------------------------------------------------------------ per frame
+    def _update_velocities(self, animation: Animation, frame: int) -> dict:
         """Set Sionna's object velocities; returns the velocity used per object (m/s)."""
+        state, loaded = self._state, self._loaded
         used = {}
         fr = animation.frame(frame)
-        for name, obj in state.scene.objects.items():
+        for name, obj in loaded.scene.objects.items():
             v = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
-            if self.vertex_doppler and state.geometry.vertex_velocity.get(name) is not None:
+            if self.vertex_doppler and loaded.vertex_velocity.get(name) is not None:
                 v = np.zeros(3)  # the per-vertex field replaces Sionna's rigid velocity
             used[name] = v
             if name not in state.velocities or not np.array_equal(state.velocities[name], v):
@@ -269,7 +226,8 @@ class PathEngine:
                 state.velocities[name] = v
         return used
 
-    def _set_pose(self, state: _State, pose: RadarPose) -> None:
+    def _set_pose(self, pose: RadarPose) -> None:
+        state = self._state
         key = _pose_key(pose)
         if state.pose == key:
             return
@@ -283,26 +241,14 @@ class PathEngine:
             dev.orientation = orientation
         state.pose = key
 
-    # ------------------------------------------------------------------ tracing
     def _trace(self, scene):
-        """PathSolver.__call__ up to the path buffer (no ``Paths`` tensors, see the module docstring)."""
-        solver = self._solver
-        scene.all_set(radio_map=False)
-        dr.eval()  # flush the frame's parameter updates: same kernel partition in every frame
-        src_positions, src_orientations, _, _ = scene.sources(False, True)
-        tgt_positions, tgt_orientations, _, _ = scene.targets(False, True)
-        src_patterns = scene.tx_array.antenna_pattern.patterns
-        tgt_patterns = scene.rx_array.antenna_pattern.patterns
-        dr.make_opaque(src_positions, tgt_positions, src_orientations, tgt_orientations)
-        buf = solver._candidate_generator(
-            mi_scene=scene.mi_scene, src_positions=src_positions, tgt_positions=tgt_positions,
-            samples_per_src=self.samples_per_src, max_num_paths_per_src=self.max_num_paths_per_src,
-            max_depth=self.max_depth, los=False, specular_reflection=self.specular,
-            diffuse_reflection=self.diffuse, refraction=self.refraction, diffraction=self.diffraction,
-            edge_diffraction=False, seed=self.seed)
-        buf.schedule()
-        dr.eval()
-        found, capacity = int(buf._paths_counter[0]), int(buf.buffer_size)
+        """The solver's steps up to the path buffer (no ``Paths`` tensors, see the module docstring)."""
+        candidates = trace_candidates(
+            self._solver, scene, samples_per_src=self.samples_per_src,
+            max_num_paths_per_src=self.max_num_paths_per_src, max_depth=self.max_depth,
+            specular_reflection=self.specular, diffuse_reflection=self.diffuse, refraction=self.refraction,
+            diffraction=self.diffraction, seed=self.seed)
+        found, capacity = candidates.found, candidates.capacity
         if found >= capacity:
             # Sionna keeps counting past the end of its candidate buffer and silently drops the
             # rest (measured: a closed room, diffuse only, 1e6 rays per source: 250k paths kept of
@@ -312,55 +258,13 @@ class PathEngine:
                 f"max_num_paths_per_src={self.max_num_paths_per_src} x {capacity // self.max_num_paths_per_src} "
                 f"sources) and the rest would be dropped silently; raise max_num_paths_per_src "
                 f"(e.g. to {4 * self.max_num_paths_per_src}) or lower samples_per_src={self.samples_per_src}")
-        buf.shrink()
-        buf.detach_geometry()
-        buf = solver._image_method(scene=scene.mi_scene, paths=buf, src_positions=src_positions,
-                                   tgt_positions=tgt_positions, diffraction=self.diffraction,
-                                   diffraction_lit_region=True)
-        buf = solver._field_calculator(
-            wavelength=scene.wavelength, paths=buf, samples_per_src=self.samples_per_src,
-            diffraction=self.diffraction, src_positions=src_positions, tgt_positions=tgt_positions,
-            src_orientations=src_orientations, tgt_orientations=tgt_orientations,
-            src_antenna_patterns=src_patterns, tgt_antenna_patterns=tgt_patterns)
-        buf.discard_invalid()
-        return buf, src_positions, tgt_positions
-
-    # ------------------------------------------------------------------ public
-    def echoes(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> Echoes:
-        """Echoes ``[num_tx, num_rx, P]`` of ``frame`` (Tx in physical element order).
-
-        ``radar_pose`` overrides ``animation.radar_pose`` (a :class:`RadarPose` or a
-        ``(position, orientation)`` pair).
-        """
-        t0 = time.perf_counter()
-        pose = resolve_pose(animation, radar_pose, PathEngineError)
-        radar.validate(frame_period=animation.frame_period)
-        key = (id(animation), str(animation.path), radar.to_json())
-        reloaded = False
-        with track_kernels(self.track_kernels, self._seen_hashes) as kernels:
-            if self._state is None or self._state.key != key:
-                self._state = None
-                self._state = self._load(animation, radar, key)
-                reloaded = True
-            state = self._state
-            self._update_geometry(animation, frame, state)
-            self._set_pose(state, pose)
-            velocities = self._update_velocities(animation, frame, state)
-            buf, src_positions, tgt_positions = self._trace(state.scene)
-            echoes, num_paths = self._to_echoes(buf, src_positions, tgt_positions, state, velocities, radar)
-        self.stats.append(FrameStats(frame, time.perf_counter() - t0, num_paths, kernels.launched, kernels.compiled,
-                                     kernels.new, reloaded))
-        return echoes
-
-    def __call__(self, animation: Animation, radar, frame: int, radar_pose=None) -> Echoes:
-        return self.echoes(animation, radar, frame, radar_pose)
-
-    def close(self) -> None:
-        """Drop the loaded scene."""
-        self._state = None
+        buf = solve_fields(self._solver, scene, candidates, samples_per_src=self.samples_per_src,
+                           diffraction=self.diffraction)
+        return buf, candidates.src_positions, candidates.tgt_positions
 
     # ------------------------------------------------------------------ buffer -> Echoes
-    def _to_echoes(self, buf, src_positions, tgt_positions, state: _State, velocities: dict, radar):
+    def _to_echoes(self, buf, src_positions, tgt_positions, velocities: dict, radar):
+        loaded, names_by_id = self._loaded, self._state.names_by_id
         m_tx, n_rx = radar.num_tx, radar.num_rx
         num = int(buf.buffer_size)
         if num == 0:
@@ -383,7 +287,7 @@ class PathEngine:
         valid_int = (types != InteractionType.NONE) & (shapes != int(INVALID_SHAPE))
 
         # --- per-vertex-velocity Doppler
-        vv_names = [n for n, v in state.geometry.vertex_velocity.items() if v is not None] if self.vertex_doppler else []
+        vv_names = [n for n, v in loaded.vertex_velocity.items() if v is not None] if self.vertex_doppler else []
         if vv_names:
             prims = np.asarray(buf.primitives.array.numpy(), dtype=np.int64).reshape(num, depth)
             verts = np.stack([np.asarray(buf.vertices_x.array.numpy(), dtype=np.float64),
@@ -392,13 +296,13 @@ class PathEngine:
             src_pos = np.stack([src_positions.x.numpy(), src_positions.y.numpy(), src_positions.z.numpy()], -1)
             tgt_pos = np.stack([tgt_positions.x.numpy(), tgt_positions.y.numpy(), tgt_positions.z.numpy()], -1)
             doppler = doppler + self._vertex_doppler(src_pos[src].astype(float), tgt_pos[tgt].astype(float), verts,
-                                                     valid_int, shapes, prims, state, vv_names,
+                                                     valid_int, shapes, prims, loaded, vv_names,
                                                      SPEED_OF_LIGHT / radar.fc)
 
         # --- labels
-        id_list = sorted(state.names_by_id)
+        id_list = sorted(names_by_id)
         lut_ids = np.array(id_list, dtype=np.int64)
-        lut_names = np.array([state.names_by_id[i] for i in id_list], dtype=object)
+        lut_names = np.array([names_by_id[i] for i in id_list], dtype=object)
         pos = np.searchsorted(lut_ids, shapes)
         pos = np.clip(pos, 0, len(lut_ids) - 1)
         found = valid_int & (lut_ids[pos] == shapes)
@@ -413,7 +317,7 @@ class PathEngine:
             labels = last
         else:
             moving = {n for n, v in velocities.items() if np.any(v != 0)}
-            moving |= {n for n in vv_names if np.any(state.geometry.vertex_velocity[n] != 0)}
+            moving |= {n for n in vv_names if np.any(loaded.vertex_velocity[n] != 0)}
             is_moving = np.vectorize(lambda s: s in moving, otypes=[bool])(per_int) & found
             has = is_moving.any(axis=1)
             idx = np.argmax(is_moving, axis=1)
@@ -440,7 +344,7 @@ class PathEngine:
         return Echoes(out_a, out_tau, out_dop, out_lab.astype(str)), num
 
     @staticmethod
-    def _vertex_doppler(src_pos, tgt_pos, verts, valid_int, shapes, prims, state: _State, vv_names, wavelength):
+    def _vertex_doppler(src_pos, tgt_pos, verts, valid_int, shapes, prims, loaded, vv_names, wavelength):
         """Sum over interactions on meshes with vertex velocities of v(p).(k_out - k_in)/lambda (Hz)."""
         num, depth, _ = verts.shape
         n_int = valid_int.sum(axis=1)
@@ -456,19 +360,19 @@ class PathEngine:
         norm = np.linalg.norm(seg, axis=-1, keepdims=True)
         k = np.divide(seg, norm, out=np.zeros_like(seg), where=norm > 0)
         extra = np.zeros(num)
-        ids = {int(obj.object_id): name for name, obj in state.scene.objects.items() if name in vv_names}
+        ids = {int(obj.object_id): name for name, obj in loaded.scene.objects.items() if name in vv_names}
         for d in range(depth):
             k_in, k_out = k[:, d], k[:, d + 1]
             for oid, name in ids.items():
                 sel = valid_int[:, d] & (shapes[:, d] == oid)
                 if not np.any(sel):
                     continue
-                faces = state.geometry.faces[name][prims[sel, d]]
-                vpos = state.geometry.vertices[name]
+                faces = loaded.faces[name][prims[sel, d]]
+                vpos = loaded.vertices[name]
                 w = barycentric_weights(verts[sel, d], vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]])
-                v = interpolate(state.geometry.vertex_velocity[name], faces, w)
+                v = interpolate(loaded.vertex_velocity[name], faces, w)
                 extra[sel] += np.einsum("ij,ij->i", v, k_out[sel] - k_in[sel]) / wavelength
         return extra
 
 
-__all__ = ["FrameStats", "PathEngine", "PathEngineError"]
+__all__ = ["PathEngine", "PathEngineError", "RADAR_MIN_SEGMENT_LENGTH"]

@@ -1,9 +1,15 @@
-r"""Pixel engine: every pixel of a render from the radar is a point target (eq. (2) of the paper).
+r"""Pixel engine: every pixel of a render from the radar is a point target (eq. (2) of the reference paper).
+
+The reference paper is Y. Liu, M. Ahmadi, J. Fuchs, M. Alaee-Kerahroodi and M. R. Bhavani Shankar,
+"A Blender-based channel simulator for FMCW radar", IEEE conference paper, Interdisciplinary Centre
+for Security, Reliability and Trust (SnT), University of Luxembourg; its eq. (2) models the beat
+signal as a sum over the pixels of a render, each pixel a point target with range, strength,
+angle and velocity. "The paper" below is this one.
 
 Each frame is "photographed" from the radar: one ray per pixel centre is cast from the virtual
 array's phase centre with Mitsuba's ``ray_intersect_preliminary`` (the intersection half of
 ``ray_intersect``: distance, shape, triangle and barycentrics; deterministic) on the very scene
-the path engine loads (:func:`~sionnafmcw.engines.scene_loading.load_radar_scene`: same XML,
+the path engine loads (:func:`~sionnafmcw.engines.loaded_scene.load_radar_scene`: same XML,
 same radio materials, the same per-frame vertex updates through the Mitsuba scene parameters).
 Every pixel that hits a surface is one contribution of the :class:`~sionnafmcw.echoes.Echoes`
 (shape ``[num_tx, num_rx, num_hit_pixels]``, labelled with the name of the object hit) with its
@@ -49,7 +55,7 @@ distance from the interaction point to the receiver). Here
   the *incident polarisation*: :math:`\mathbf R` is the specular reflection matrix with the
   ITU-R P.2040 single-layer slab coefficients :math:`r_{TE}, r_{TM}` (thickness :math:`d`,
   complex permittivity :math:`\eta = \varepsilon_r - j\sigma/(\omega\varepsilon_0)`, eqs. (43),
-  (44); :func:`slab_reflection_coefficients`), so
+  (44); :func:`~sionnafmcw.electromagnetics.slab_reflection_coefficients`), so
 
   .. math::
       \Gamma^2 = |r_{TE}(\theta_i)|^2 (\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2
@@ -142,7 +148,7 @@ Array phase
 which for a uniform virtual row of spacing :math:`\Delta d` along the radar's :math:`y` axis
 gives the paper's phase :math:`((m-1)N + n - 1)\,\Delta d\,\sin\theta/\lambda` with
 :math:`\sin\theta = \cos\vartheta\sin\varphi` (with the opposite sign: the IF here is
-:math:`s_{tx}\,\overline{s_{rx}}`, NOTES section 2). Gain and Doppler are those of the phase
+:math:`s_{tx}\,\overline{s_{rx}}`, ``docs/conventions.md``, \"The beat signal\"). Gain and Doppler are those of the phase
 centre for every pair. ``array_model="exact"``: spherical wavefronts per element,
 :math:`\tau_{mn} = (\|\mathbf p - \mathbf t_m\| + \|\mathbf p - \mathbf r_n\|)/c_0` with the
 element positions of the radar pose (:mod:`sionnafmcw.geometry`), element gains and
@@ -196,24 +202,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._llvm import configure_llvm
-
-configure_llvm()
-
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
-
-from ..animation import Animation, RadarPose  # noqa: E402
-from ..antenna import antenna_gain, check_pattern, direction_angles  # noqa: E402
-from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY  # noqa: E402
-from ..echoes import Echoes  # noqa: E402
-from ..geometry import rotation_matrix  # noqa: E402
-from .frame_scene import FrameScene, interpolate, resolve_pose, track_kernels  # noqa: E402
-from .scene_loading import SceneLoadError, load_radar_scene  # noqa: E402
-
+from ..animation import Animation, RadarPose
+from ..antenna import antenna_gain, check_pattern, direction_angles
+from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
+from ..echoes import Echoes
+from ..electromagnetics import (
+    copolar_fraction, dot, lambertian_pattern, reflection_power, unit,
+    vertical_polarisation,
+)
+from ..geometry import rotation_matrix
+from ..array import phase_centre
+from ..sionna_rt import LambertianPattern, dr, mi
+from .base import Engine, EngineError
+from .loaded_scene import interpolate
 
 
-class PixelEngineError(ValueError):
+class PixelEngineError(EngineError):
     """The pixel engine cannot run with these parameters or this animation; the message says why."""
 
 
@@ -286,58 +290,7 @@ class PixelGrid:
         return 2.0 * float(self.fov_az) * np.sin(float(self.fov_el) / 2)
 
 
-# ---------------------------------------------------------------------------------------- electromagnetics
-def slab_reflection_coefficients(cos_theta, eta, thickness, wavelength) -> tuple[np.ndarray, np.ndarray]:
-    r"""ITU-R P.2040 single-layer slab reflection coefficients :math:`(r_{TE}, r_{TM})` (numpy, complex).
-
-    The same formulas as Sionna's ``itu_coefficients_single_layer_slab`` (eqs. (43a), (44)):
-
-    .. math::
-        r'_{TE} = \frac{\cos\theta - \sqrt{\eta - \sin^2\theta}}{\cos\theta + \sqrt{\eta - \sin^2\theta}},\quad
-        r'_{TM} = \frac{\eta\cos\theta - \sqrt{\eta - \sin^2\theta}}{\eta\cos\theta + \sqrt{\eta - \sin^2\theta}},\quad
-        q = \frac{2\pi d}{\lambda}\sqrt{\eta - \sin^2\theta},\quad
-        r = r'\,\frac{1 - e^{-j2q}}{1 - r'^2 e^{-j2q}}
-
-    ``cos_theta``: cosine of the angle of incidence; ``eta``: complex relative permittivity
-    :math:`\varepsilon_r - j\sigma/(\omega\varepsilon_0)`; ``thickness`` :math:`d` and
-    ``wavelength`` in metres.
-    """
-    cos_theta = np.asarray(cos_theta, dtype=float)
-    eta = np.asarray(eta, dtype=complex)
-    sin2 = 1.0 - cos_theta ** 2
-    root = np.sqrt(eta - sin2)
-    r_te_p = (cos_theta - root) / (cos_theta + root)
-    r_tm_p = (eta * cos_theta - root) / (eta * cos_theta + root)
-    q = 2 * np.pi * np.asarray(thickness, dtype=float) / wavelength * root
-    e2q = np.exp(-2j * q)
-    r_te = r_te_p * (1 - e2q) / (1 - r_te_p ** 2 * e2q)
-    r_tm = r_tm_p * (1 - e2q) / (1 - r_tm_p ** 2 * e2q)
-    return r_te, r_tm
-
-
-def _unit(v, axis=-1):
-    norm = np.linalg.norm(v, axis=axis, keepdims=True)
-    return np.divide(v, norm, out=np.zeros_like(v), where=norm > 0)
-
-
-def _spherical_basis(k) -> tuple[np.ndarray, np.ndarray]:
-    r"""World :math:`(\hat{\boldsymbol\theta}, \hat{\boldsymbol\varphi})` of unit directions ``k [..., 3]``."""
-    theta = np.arccos(np.clip(k[..., 2], -1.0, 1.0))
-    phi = np.arctan2(k[..., 1], k[..., 0])
-    ct, st, cp, sp = np.cos(theta), np.sin(theta), np.cos(phi), np.sin(phi)
-    theta_hat = np.stack([ct * cp, ct * sp, -st], axis=-1)
-    phi_hat = np.stack([-sp, cp, np.zeros_like(sp)], axis=-1)
-    return theta_hat, phi_hat
-
-
-def _vertical_polarisation(k_world, rotation) -> np.ndarray:
-    r"""Unit field vector (world) of a vertically polarised element towards ``k_world [..., 3]``:
-    :math:`\mathbf R\,\hat{\boldsymbol\theta}(\mathbf R^T\hat{\mathbf k})` (Sionna's ``"V"``, slant angle 0)."""
-    local = k_world @ rotation
-    theta_hat, _ = _spherical_basis(local)
-    return theta_hat @ rotation.T
-
-
+# ---------------------------------------------------------------------------------------- Dr.Jit inputs
 def _jit_float(values) -> "mi.Float":
     """``values`` as a Dr.Jit Float from a 64-byte aligned buffer.
 
@@ -351,10 +304,6 @@ def _jit_float(values) -> "mi.Float":
     aligned = buffer[start:start + values.size]
     aligned[:] = values
     return mi.Float(aligned)
-
-
-def _dot(a, b):
-    return np.einsum("...i,...i->...", a, b)
 
 
 # ---------------------------------------------------------------------------------------- results
@@ -398,21 +347,6 @@ class PixelRender:
 
 
 @dataclass
-class PixelFrameStats:
-    """What one :meth:`PixelEngine.echoes` call did (kernel counts as in :class:`~sionnafmcw.engines.FrameStats`)."""
-
-    frame: int
-    seconds: float
-    trace_seconds: float
-    num_hits: int
-    num_contributions: int
-    kernels_launched: int
-    kernels_compiled: int
-    new_kernel_hashes: int
-    reloaded: bool
-
-
-@dataclass
 class _Material:
     name: str
     eta: complex
@@ -425,19 +359,15 @@ class _Material:
 
 @dataclass
 class _State:
-    key: tuple
-    geometry: FrameScene            # scene, parameters and per-object geometry of the current frame
+    """Per-scene state of the pixel engine: the objects and their materials."""
+
     names: list                     # object names, index = local object index
     index_by_id: dict               # Sionna object_id -> local object index
     materials: list                 # local object index -> _Material
 
-    @property
-    def scene(self):
-        return self.geometry.scene
-
 
 # ---------------------------------------------------------------------------------------- engine
-class PixelEngine:
+class PixelEngine(Engine):
     """The scene rendered from the radar; each hit pixel a point target (see the module docstring).
 
     Parameters
@@ -456,8 +386,13 @@ class PixelEngine:
         Use per-vertex velocities from the PLYs where present (else the manifest velocity).
     track_kernels : bool
         Record Dr.Jit kernel launches per frame in :attr:`stats`.
+
+    :attr:`stats` figures: ``trace_seconds`` (the ray cast), ``num_hits`` (pixels that hit a
+    surface), ``num_contributions`` (hit pixels with a non-zero echo).
     """
 
+    name = "pixel"
+    FIXED_SETTINGS = {"scattering": "diffuse", "specular": False, "max_depth": 1}
     ARRAY_MODELS = ("plane-wave", "exact")
 
     def __init__(self, n_az: int = 128, n_el: int = 64, fov_az: float = np.deg2rad(120.0),
@@ -475,41 +410,22 @@ class PixelEngine:
                     f"PixelEngine: scattering_coefficient must be None or a number in [0, 1], "
                     f"got {scattering_coefficient!r}")
             scattering_coefficient = float(scattering_coefficient)
-        self.grid = PixelGrid(n_az, n_el, fov_az, fov_el)
+        grid = PixelGrid(n_az, n_el, fov_az, fov_el)
+        super().__init__(track_kernels=track_kernels)
+        self.grid = grid
         self.array_model = array_model
         self.scattering_coefficient = scattering_coefficient
         self.vertex_doppler = bool(vertex_doppler)
-        self.track_kernels = bool(track_kernels)
         self._directions = self.grid.directions().reshape(-1, 3)
         self._solid_angles = self.grid.solid_angles().reshape(-1)
         az, el = self.grid.angles()
         self._az, self._el = az.reshape(-1), el.reshape(-1)
-        self._state: _State | None = None
-        self._seen_hashes: set = set()
-        self.stats: list[PixelFrameStats] = []
         self.last_render: PixelRender | None = None
 
-    # ------------------------------------------------------------------ description
-    def settings(self) -> dict:
-        """The engine settings as a plain dict (for run stores)."""
-        return {"engine": "pixel", "n_az": self.grid.n_az, "n_el": self.grid.n_el,
-                "fov_az": float(self.grid.fov_az), "fov_el": float(self.grid.fov_el),
-                "array_model": self.array_model, "scattering_coefficient": self.scattering_coefficient,
-                "vertex_doppler": self.vertex_doppler, "scattering": "diffuse", "specular": False,
-                "max_depth": 1}
-
-    def __repr__(self) -> str:
-        return "PixelEngine(" + ", ".join(f"{k}={v!r}" for k, v in self.settings().items()
-                                          if k not in ("engine", "scattering", "specular", "max_depth")) + ")"
-
-    @property
-    def last_stats(self) -> PixelFrameStats | None:
-        return self.stats[-1] if self.stats else None
-
-    @property
-    def scene(self):
-        """The Sionna scene currently loaded (None before the first frame)."""
-        return None if self._state is None else self._state.scene
+    def _settings(self) -> dict:
+        return {"n_az": self.grid.n_az, "n_el": self.grid.n_el, "fov_az": float(self.grid.fov_az),
+                "fov_el": float(self.grid.fov_el), "array_model": self.array_model,
+                "scattering_coefficient": self.scattering_coefficient, "vertex_doppler": self.vertex_doppler}
 
     # ------------------------------------------------------------------ set-up
     def _material(self, obj_name: str, mat) -> _Material:
@@ -527,20 +443,14 @@ class PixelEngine:
         s = float(np.asarray(mat.scattering_coefficient).ravel()[0])
         if self.scattering_coefficient is not None:
             s = self.scattering_coefficient
-        from sionna.rt.radio_materials.scattering_pattern import LambertianPattern
-
         return _Material(
             name=str(getattr(mat, "name", "")), eta=complex(eps_r, -sigma / (omega * VACUUM_PERMITTIVITY)),
             thickness=float(np.asarray(mat.thickness).ravel()[0]), scattering_coefficient=s,
             xpd_coefficient=float(np.asarray(mat.xpd_coefficient).ravel()[0]), pattern=mat.scattering_pattern,
             lambertian=isinstance(mat.scattering_pattern, LambertianPattern))
 
-    def _load(self, animation: Animation, radar, key) -> _State:
-        animation.check_frequency(radar.fc)
-        try:
-            scene = load_radar_scene(animation.frames[0].xml, radar.fc)
-        except SceneLoadError as err:
-            raise PixelEngineError(str(err)) from err.__cause__
+    def _load(self, scene, animation: Animation, radar) -> _State:
+        """The objects and their materials; a first ray cast compiles the cast's kernel while loading."""
         names, index_by_id, materials = [], {}, []
         for name, obj in scene.objects.items():
             index_by_id[int(obj.object_id)] = len(names)
@@ -551,15 +461,14 @@ class PixelEngine:
                 f"PixelEngine: every material of {animation.frames[0].xml} has scattering_coefficient 0; the pixel "
                 "engine models diffuse scattering only, so it sees nothing. Give the materials a "
                 "scattering_coefficient or set PixelEngine(scattering_coefficient=...).", stacklevel=3)
-        state = _State(key, FrameScene.load(scene, animation, PixelEngineError), names, index_by_id, materials)
-        # one dummy cast so that the ray-casting kernel is compiled while loading
         self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
-        return state
+        return _State(names, index_by_id, materials)
 
-    @staticmethod
-    def _update_geometry(animation: Animation, frame: int, state: _State) -> None:
-        if state.geometry.update_geometry(animation, frame):
-            dr.eval()
+    def _check_radar(self, radar) -> None:
+        check_pattern(radar.antenna_pattern)
+
+    def _geometry_changed(self) -> None:
+        dr.eval()
 
     # ------------------------------------------------------------------ ray casting
     @staticmethod
@@ -584,54 +493,32 @@ class PixelEngine:
         self.echoes(animation, radar, frame, radar_pose)
         return self.last_render
 
-    def echoes(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> Echoes:
-        """Echoes ``[num_tx, num_rx, num_hit_pixels]`` of ``frame`` (Tx in physical element order).
+    def _frame_echoes(self, animation: Animation, radar, frame: int, pose: RadarPose):
+        """Echoes ``[num_tx, num_rx, num_hit_pixels]`` of ``frame``; the render is kept as :attr:`last_render`.
 
-        ``radar_pose`` overrides ``animation.radar_pose`` (a :class:`RadarPose` or a
-        ``(position, orientation)`` pair). Pixels whose material gives no diffuse echo (S = 0)
-        are left out of the echoes but kept in :attr:`last_render`.
+        Pixels whose material gives no diffuse echo (S = 0) are left out of the echoes but kept in
+        :attr:`last_render`.
         """
-        t0 = time.perf_counter()
-        pose = resolve_pose(animation, radar_pose, PixelEngineError)
-        radar.validate(frame_period=animation.frame_period)
-        check_pattern(radar.antenna_pattern)
-        key = (id(animation), str(animation.path), radar.to_json())
-        reloaded = False
-        with track_kernels(self.track_kernels, self._seen_hashes) as kernels:
-            if self._state is None or self._state.key != key:
-                self._state = None
-                self._state = self._load(animation, radar, key)
-                reloaded = True
-            state = self._state
-            self._update_geometry(animation, frame, state)
-            rotation = rotation_matrix(pose.orientation)
-            from ..processing.mimo import array_phase_centre
-
-            centre_local = array_phase_centre(radar)
-            centre = pose.position + rotation @ centre_local
-            directions = self._directions @ rotation.T
-            t_cast = time.perf_counter()
-            valid, t_hit, shape_id, prim, uv = self._cast(state.scene, centre, directions)
-            trace_seconds = time.perf_counter() - t_cast
-        render, echoes = self._to_echoes(frame, animation, radar, state, pose, rotation, centre_local, centre,
-                                         directions, valid, t_hit, shape_id, prim, uv)
+        rotation = rotation_matrix(pose.orientation)
+        centre_local = phase_centre(radar)
+        centre = pose.position + rotation @ centre_local
+        directions = self._directions @ rotation.T
+        t_cast = time.perf_counter()
+        valid, t_hit, shape_id, prim, uv = self._cast(self._loaded.scene, centre, directions)
+        trace_seconds = time.perf_counter() - t_cast
+        render, echoes = self._to_echoes(frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv)
         self.last_render = render
-        self.stats.append(PixelFrameStats(frame, time.perf_counter() - t0, trace_seconds, render.num_hits,
-                                          echoes.num_contributions, kernels.launched, kernels.compiled, kernels.new,
-                                          reloaded))
-        return echoes
-
-    def __call__(self, animation: Animation, radar, frame: int, radar_pose=None) -> Echoes:
-        return self.echoes(animation, radar, frame, radar_pose)
+        return echoes, {"trace_seconds": trace_seconds, "num_hits": render.num_hits,
+                        "num_contributions": echoes.num_contributions}
 
     def close(self) -> None:
-        """Drop the loaded scene."""
-        self._state = None
+        """Drop the loaded scene and the last render."""
+        super().close()
         self.last_render = None
 
     # ------------------------------------------------------------------ hits -> Echoes
-    def _to_echoes(self, frame, animation, radar, state: _State, pose, rotation, centre_local, centre, directions,
-                   valid, t_hit, shape_id, prim, uv):
+    def _to_echoes(self, frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv):
+        state, loaded = self._state, self._loaded
         m_tx, n_rx = radar.num_tx, radar.num_rx
         wavelength = SPEED_OF_LIGHT / radar.fc
         ids = np.array(sorted(state.index_by_id), dtype=np.int64)
@@ -660,14 +547,14 @@ class PixelEngine:
             sel = np.nonzero(obj == k)[0]
             if sel.size == 0:
                 continue
-            tri = state.geometry.faces[name][prim[pix[sel]]]
-            verts = state.geometry.vertices[name]
+            tri = loaded.faces[name][prim[pix[sel]]]
+            verts = loaded.vertices[name]
             b1, b2 = uv[pix[sel], 0], uv[pix[sel], 1]
             w = np.stack([1.0 - b1 - b2, b1, b2], axis=-1)
             v0, v1, v2 = verts[tri[:, 0]], verts[tri[:, 1]], verts[tri[:, 2]]
             position[sel] = interpolate(verts, tri, w)
-            normal[sel] = _unit(np.cross(v1 - v0, v2 - v0))
-            field = state.geometry.vertex_velocity.get(name) if self.vertex_doppler else None
+            normal[sel] = unit(np.cross(v1 - v0, v2 - v0))
+            field = loaded.vertex_velocity.get(name) if self.vertex_doppler else None
             if field is not None:
                 velocity[sel] = interpolate(field, tri, w)
             else:
@@ -676,7 +563,7 @@ class PixelEngine:
         rng = np.linalg.norm(offset, axis=-1)
         # direction to the hit point (world): the pixel centre's to float32 precision of the cast
         u = offset / rng[:, None]
-        cos_i = np.abs(_dot(normal, u))
+        cos_i = np.abs(dot(normal, u))
         mats = [state.materials[k] for k in range(len(state.names))]
         s_coef = np.array([m.scattering_coefficient for m in mats])[obj] if num else np.zeros(0)
         kx = np.array([m.xpd_coefficient for m in mats])[obj] if num else np.zeros(0)
@@ -701,26 +588,19 @@ class PixelEngine:
         g_t = antenna_gain(radar.antenna_pattern, *direction_angles(d_in @ rotation))
         g_r = antenna_gain(radar.antenna_pattern, *direction_angles(d_out @ rotation))
         # polarisations (unit, world) and Sionna's reflection coefficient of the incident polarisation
-        e_t = _vertical_polarisation(k_in, rotation)             # [Ms, P, 3]
-        e_r = _vertical_polarisation(-k_out, rotation)           # [Ns, P, 3]
-        cos_in = np.abs(_dot(normal[None], k_in))                # [Ms, P]
+        e_t = vertical_polarisation(k_in, rotation)             # [Ms, P, 3]
+        e_r = vertical_polarisation(-k_out, rotation)           # [Ns, P, 3]
+        cos_in = np.abs(dot(normal[None], k_in))                # [Ms, P]
         gamma2 = self._gamma_squared(obj, mats, normal, k_in, e_t, cos_in, wavelength)
-        # XPD: (theta, phi) components at k_in -> rotated -> field along (theta, phi) at k_out
-        th_i, ph_i = _spherical_basis(k_in)
-        a1, b1 = _dot(e_t, th_i), _dot(e_t, ph_i)                # [Ms, P]
-        ca, sa = np.sqrt(1.0 - kx), np.sqrt(kx)
-        a2 = ca * a1 - sa * b1
-        b2 = sa * a1 + ca * b1
-        th_o, ph_o = _spherical_basis(k_out)                      # [Ns, P, 3]
-        e_s = a2[:, None, :, None] * th_o[None] + b2[:, None, :, None] * ph_o[None]   # [Ms, Ns, P, 3]
-        chi = _dot(e_r[None], e_s) ** 2                           # [Ms, Ns, P]
-        cos_s = np.abs(_dot(normal[None], k_out))                 # [Ns, P]
+        # XPD: co-polar fraction of the scattered field at each Rx element, [Ms, Ns, P]
+        chi = copolar_fraction(e_t[:, None], k_in[:, None], e_r[None], k_out[None], kx)
+        cos_s = np.abs(dot(normal[None], k_out))                 # [Ns, P]
         f_s = self._pattern(obj, mats, normal, k_in, k_out, cos_s)   # [Ms, Ns, P]
         # bistatic RCS sigma_mn = 4 pi A cos(theta_i,m) S^2 Gamma_m^2 chi_mn f_s,mn
         sigma = 4 * np.pi * area * cos_in[:, None, :] * s_coef ** 2 * gamma2[:, None, :] * chi * f_s
         amp = wavelength * np.sqrt(g_t[:, None, :] * g_r[None, :, :] * sigma) / (
             (4 * np.pi) ** 1.5 * r_in[:, None, :] * r_out[None, :, :])
-        velocity_doppler = _dot(velocity[None, None], k_out[None] - k_in[:, None]) / wavelength   # [Ms, Ns, P]
+        velocity_doppler = dot(velocity[None, None], k_out[None] - k_in[:, None]) / wavelength   # [Ms, Ns, P]
 
         if self.array_model == "exact":
             tau = (r_in[:, None, :] + r_out[None, :, :]) / SPEED_OF_LIGHT
@@ -741,48 +621,34 @@ class PixelEngine:
         contributes = np.any(amp > 0, axis=(0, 1)) if num else np.zeros(0, dtype=bool)
         render = PixelRender(frame=frame, grid=self.grid, pixel=pix, azimuth=self._az[pix], elevation=self._el[pix],
                              solid_angle=solid, range=rng, position=position, normal=normal, velocity=velocity,
-                             radial_velocity=_dot(velocity, u), cos_incidence=cos_i, rcs=rcs_mono, labels=labels,
+                             radial_velocity=dot(velocity, u), cos_incidence=cos_i, rcs=rcs_mono, labels=labels,
                              contributes=contributes)
         keep = contributes
         echoes = Echoes(amp[..., keep].astype(complex), tau[..., keep], doppler[..., keep], labels[keep])
         return render, echoes
 
     def _monostatic_rcs(self, obj, mats, normal, u, centre, rotation, area, s_coef, kx, wavelength):
-        cos_i = np.abs(_dot(normal, u))[None]
+        cos_i = np.abs(dot(normal, u))[None]
         k_in = u[None]
-        e_t = _vertical_polarisation(k_in, rotation)
+        e_t = vertical_polarisation(k_in, rotation)
         gamma2 = self._gamma_squared(obj, mats, normal, k_in, e_t, cos_i, wavelength)[0]
-        th, ph = _spherical_basis(k_in[0])
-        a1, b1 = _dot(e_t[0], th), _dot(e_t[0], ph)
-        a2 = np.sqrt(1 - kx) * a1 - np.sqrt(kx) * b1
-        b2 = np.sqrt(kx) * a1 + np.sqrt(1 - kx) * b1
-        th_o, ph_o = _spherical_basis(-u)
-        chi = _dot(e_t[0], a2[:, None] * th_o + b2[:, None] * ph_o) ** 2
+        chi = copolar_fraction(e_t[0], k_in[0], e_t[0], -u, kx)   # back to the same element
         f_s = self._pattern(obj, mats, normal, k_in, -k_in, cos_i)[0, 0]
         return 4 * np.pi * area * cos_i[0] * s_coef ** 2 * gamma2 * chi * f_s
 
     @staticmethod
     def _gamma_squared(obj, mats, normal, k_in, e_t, cos_in, wavelength):
-        r"""Sionna's reflection coefficient of the incident polarisation, ``[Ms, P]``:
-        :math:`\Gamma^2 = |r_{TE}|^2(\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2
-        + |r_{TM}|^2(1 - (\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2)`."""
+        r"""Sionna's reflection coefficient of the incident polarisation :math:`\Gamma^2`, ``[Ms, P]``
+        (:func:`~sionnafmcw.electromagnetics.reflection_power` with each hit's material)."""
         eta = np.array([m.eta for m in mats], dtype=complex)[obj]
         thick = np.array([m.thickness for m in mats])[obj]
-        r_te, r_tm = slab_reflection_coefficients(np.clip(cos_in, 0.0, 1.0), eta[None], thick[None], wavelength)
-        s_hat = np.cross(k_in, normal[None])
-        s_norm = np.linalg.norm(s_hat, axis=-1, keepdims=True)
-        # normal incidence: any transverse direction (|r_TE| = |r_TM| there)
-        fallback = np.cross(k_in, np.where(np.abs(k_in[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]))
-        s_hat = np.where(s_norm > 1e-9, s_hat, fallback)
-        s_hat = _unit(s_hat)
-        te = _dot(e_t, s_hat) ** 2
-        return np.abs(r_te) ** 2 * te + np.abs(r_tm) ** 2 * (1.0 - te)
+        return reflection_power(cos_in, eta[None], thick[None], wavelength, k_in, normal[None], e_t)
 
     @staticmethod
     def _pattern(obj, mats, normal, k_in, k_out, cos_s):
         """Scattering pattern :math:`f_s` ``[Ms, Ns, P]``: Lambert in numpy, other patterns through Sionna."""
         ms, ns, num = k_in.shape[0], k_out.shape[0], normal.shape[0]
-        out = np.broadcast_to(cos_s[None] / np.pi, (ms, ns, num)).copy()
+        out = np.broadcast_to(lambertian_pattern(cos_s[None]), (ms, ns, num)).copy()
         for k, mat in enumerate(mats):
             if mat.lambertian:
                 continue
@@ -791,7 +657,7 @@ class PixelEngine:
                 continue
             for m in range(ms):
                 for n in range(ns):
-                    nrm = normal[sel] * np.sign(-_dot(normal[sel], k_in[m, sel]))[:, None]  # towards the incident side
+                    nrm = normal[sel] * np.sign(-dot(normal[sel], k_in[m, sel]))[:, None]  # towards the incident side
                     frame = mi.Frame3f(mi.Vector3f(*[mi.Float(np.ascontiguousarray(nrm[:, i], dtype=np.float32))
                                                      for i in range(3)]))
                     ki = frame.to_local(mi.Vector3f(*[mi.Float(np.ascontiguousarray(k_in[m, sel, i], dtype=np.float32))
@@ -804,5 +670,4 @@ class PixelEngine:
         return out
 
 
-__all__ = ["PixelEngine", "PixelEngineError", "PixelFrameStats", "PixelGrid", "PixelRender",
-           "slab_reflection_coefficients"]
+__all__ = ["PixelEngine", "PixelEngineError", "PixelGrid", "PixelRender"]

@@ -1,43 +1,62 @@
-"""Frame-by-frame scene state shared by both engines (path and pixel).
+"""The loaded scene of an engine: a Sionna scene at the carrier and the geometry of the current frame.
 
-Both engines load an animation's scene once (:func:`~sionnafmcw.engines.scene_loading.load_radar_scene`,
-``merge_shapes=False``) and then move it from frame to frame without reloading. What they share:
+Every engine loads an animation's scene once (:func:`load_radar_scene`, ``merge_shapes=False``
+so that moving meshes stay separate objects) and then moves it from frame to frame without
+reloading (:class:`~sionnafmcw.engines.base.Engine` does both). This module holds:
 
-* :class:`FrameScene` -- the loaded scene, its Mitsuba parameters and, per object, the geometry of
-  the current frame (faces, world vertices, per-vertex velocities). :meth:`FrameScene.load` checks
-  that what Mitsuba loaded equals the PLYs read by :mod:`sionnafmcw.animation` and writes the meshes
-  that move once, so the kernels of a geometry update are compiled while loading;
-  :meth:`FrameScene.update_geometry` writes the vertex positions of the meshes whose PLY changed
-  through the Mitsuba scene parameters.
-* :func:`resolve_pose` -- the radar pose of a call (the argument, else the animation's).
-* :func:`track_kernels` -- Dr.Jit kernel launches of a block (launched, compiled, new hashes).
-* :func:`barycentric_weights` and :func:`interpolate` -- per-vertex values (velocities, positions)
-  at points on a triangle.
+* :func:`load_radar_scene` -- the scene XML at the radar's carrier
+  (:func:`sionnafmcw.sionna_rt.load_scene_at`), with the custom materials (skin) attached and
+  every material checked at the carrier (:mod:`sionnafmcw.materials`);
+* :class:`LoadedScene` -- the loaded scene, its Mitsuba parameters and, per object, the geometry
+  of the current frame (faces, world vertices, per-vertex velocities). :meth:`LoadedScene.load`
+  checks that what Mitsuba loaded equals the PLYs read by :mod:`sionnafmcw.animation` and writes
+  the meshes that move once, so the kernels of a geometry update are compiled while loading;
+  :meth:`LoadedScene.update_geometry` writes the vertex positions of the meshes whose PLY changed
+  through the Mitsuba scene parameters;
+* :func:`barycentric_weights` and :func:`interpolate` -- per-vertex values (velocities,
+  positions) at points on a triangle.
 
-Errors are raised as the calling engine's error class (``error_cls``), so each engine keeps its own
-exception type; the messages are the same for both.
+Errors are :class:`~sionnafmcw.engines.base.SceneLoadError` and
+:class:`~sionnafmcw.engines.base.SceneGeometryError` (both :class:`~sionnafmcw.engines.base.EngineError`).
 """
 
 from __future__ import annotations
 
-from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
-from .._llvm import configure_llvm
+from ..animation import Animation
+from ..materials import apply_custom_materials, check_scene_materials
+from ..sionna_rt import dr, load_scene_at, mi
+from .base import SceneGeometryError, SceneLoadError
 
-configure_llvm()
 
-import drjit as dr  # noqa: E402
-import mitsuba as mi  # noqa: E402
+# ---------------------------------------------------------------------------------------- loading
+def load_radar_scene(xml, frequency: float):
+    """Load ``xml`` with ``merge_shapes=False`` as a Sionna scene evaluated at ``frequency`` (Hz).
 
-from ..animation import Animation, RadarPose  # noqa: E402
+    Every material is built at ``frequency`` (:func:`~sionnafmcw.sionna_rt.load_scene_at`: ITU
+    materials defined only at millimetre waves, such as ``floorboard``, would fail at Sionna's
+    default 3.5 GHz), moving meshes stay separate objects, skin and other custom materials are
+    attached (:func:`~sionnafmcw.materials.apply_custom_materials`) and every material is checked
+    at ``frequency``. Raises :class:`SceneLoadError` naming the file when Sionna refuses it.
+    """
+    xml = Path(xml)
+    try:
+        scene = load_scene_at(xml, frequency)
+    except Exception as err:  # noqa: BLE001  (Sionna and Mitsuba raise plain exceptions)
+        raise SceneLoadError(f"{xml}: Sionna could not load the scene: {err}") from err
+    apply_custom_materials(scene)
+    check_scene_materials(scene, frequency)
+    scene.frequency = frequency
+    return scene
 
 
 # ---------------------------------------------------------------------------------------- geometry
 @dataclass
-class FrameScene:
+class LoadedScene:
     """A loaded Sionna scene and the per-object geometry of the frame currently written into it.
 
     ``shape_ids`` maps each object name to its Mitsuba shape id (the prefix of its scene
@@ -46,12 +65,10 @@ class FrameScene:
     PLY's for PLY meshes, as Mitsuba loaded it (float32, no velocities) for the other shapes, which
     may not move. ``loaded_files`` is what is written into the scene per object (PLY file, mtime
     and transform; ``"not-ply"`` and the transform otherwise), so that unchanged meshes are skipped.
-    Errors are raised as ``error_cls``.
     """
 
     scene: object
     params: object
-    error_cls: type
     shape_ids: dict = field(default_factory=dict)        # name -> Mitsuba shape id
     faces: dict = field(default_factory=dict)            # name -> [F, 3] int64
     vertices: dict = field(default_factory=dict)         # name -> [V, 3] float64 (world, current frame)
@@ -59,25 +76,25 @@ class FrameScene:
     loaded_files: dict = field(default_factory=dict)     # name -> what is written into the scene
 
     @classmethod
-    def load(cls, scene, animation: Animation, error_cls: type) -> FrameScene:
+    def load(cls, scene, animation: Animation) -> LoadedScene:
         """The geometry of frame 0 of ``animation`` in the freshly loaded Sionna ``scene``.
 
         Reads ``scene.mi_scene_params`` now (so call it after adding devices or velocities), checks
         that the vertices and faces Mitsuba loaded for every PLY mesh equal the PLY read by
-        sionnafmcw (else ``error_cls``), and writes the frame-0 vertices of the meshes that move in
+        sionnafmcw (else :class:`SceneGeometryError`), and writes the frame-0 vertices of the meshes that move in
         a later frame once, followed by ``dr.eval()``: the kernels of a geometry update are then
         compiled while loading rather than in frame 1.
         """
         params = scene.mi_scene_params
-        state = cls(scene, params, error_cls)
-        frame_scene = animation.scene(0)
+        state = cls(scene, params)
+        first_frame = animation.scene(0)
         for name, obj in scene.objects.items():
             state.shape_ids[name] = obj.mi_mesh.id()
         # reference geometry: what Sionna loaded for frame 0, compared with our own PLY reading
         for name, shape_id in state.shape_ids.items():
             loaded = np.asarray(params[f"{shape_id}.vertex_positions"], dtype=float).reshape(-1, 3)
             faces = np.asarray(params[f"{shape_id}.faces"], dtype=np.int64).reshape(-1, 3)
-            info = frame_scene.shapes.get(name)
+            info = first_frame.shapes.get(name)
             if info is None or info.type != "ply":
                 # not a PLY: static geometry as Mitsuba loaded it (float32), no vertex velocities
                 state.vertices[name], state.faces[name], state.vertex_velocity[name] = loaded, faces, None
@@ -85,11 +102,11 @@ class FrameScene:
                 continue
             mesh = animation.mesh(0, name)
             if loaded.shape != mesh.vertices.shape or not np.allclose(loaded, mesh.vertices, atol=1e-4, rtol=1e-5):
-                raise error_cls(
+                raise SceneGeometryError(
                     f"{info.filename}: the vertices Mitsuba loaded differ from the PLY read by sionnafmcw "
                     f"({loaded.shape[0]} vs {mesh.vertices.shape[0]} vertices); cannot update this mesh per frame")
             if faces.shape != mesh.faces.shape or not np.array_equal(faces, mesh.faces):
-                raise error_cls(
+                raise SceneGeometryError(
                     f"{info.filename}: the faces Mitsuba loaded differ from the PLY read by sionnafmcw; "
                     "cannot interpolate vertex velocities on this mesh")
             state.vertices[name], state.faces[name] = mesh.vertices, faces
@@ -100,7 +117,7 @@ class FrameScene:
         dynamic = set()
         for i in range(1, animation.num_frames):
             for name, info in animation.scene(i).shapes.items():
-                first = frame_scene.shapes.get(name)
+                first = first_frame.shapes.get(name)
                 if first is not None and info.type == "ply" and (
                         info.filename != first.filename or not np.array_equal(info.to_world, first.to_world)):
                     dynamic.add(name)
@@ -119,7 +136,7 @@ class FrameScene:
         """Write the meshes of ``frame`` whose PLY (file, mtime or transform) changed; True if any did.
 
         The frame must have the same shapes as frame 0, only PLY meshes may change, and a changed
-        mesh must keep its vertex count and faces (else ``error_cls``). The new vertex positions
+        mesh must keep its vertex count and faces (else :class:`SceneGeometryError`). The new vertex positions
         go through the Mitsuba scene parameters followed by ``params.update()``; what else a
         geometry change needs (a Sionna callback, an evaluation) is the caller's, when this
         returns True.
@@ -128,14 +145,14 @@ class FrameScene:
         missing = sorted(set(self.shape_ids) - set(fs.shapes))
         extra = sorted(set(fs.shapes) - set(self.shape_ids))
         if missing or extra:
-            raise self.error_cls(
+            raise SceneGeometryError(
                 f"{fs.xml}: frame {frame} has a different set of shapes than frame 0 "
                 f"(missing: {missing or 'none'}, new: {extra or 'none'}); the engine keeps one scene per animation")
         changed = False
         for name, info in fs.shapes.items():
             if info.type != "ply":
                 if self.loaded_files.get(name) != ("not-ply", tuple(info.to_world.ravel())):
-                    raise self.error_cls(
+                    raise SceneGeometryError(
                         f"{fs.xml}: shape {info.id!r} of type {info.type!r} changes its transform in frame {frame}; "
                         "only PLY meshes can move (export moving objects as PLY)")
                 continue
@@ -144,11 +161,11 @@ class FrameScene:
                 continue
             mesh = animation.mesh(frame, name)
             if mesh.vertices.shape != self.vertices[name].shape:
-                raise self.error_cls(
+                raise SceneGeometryError(
                     f"{info.filename}: mesh {name!r} has {mesh.vertices.shape[0]} vertices in frame {frame} but "
                     f"{self.vertices[name].shape[0]} in frame 0; per-frame meshes must keep their topology")
             if mesh.faces.shape != self.faces[name].shape or not np.array_equal(mesh.faces, self.faces[name]):
-                raise self.error_cls(
+                raise SceneGeometryError(
                     f"{info.filename}: mesh {name!r} changes its faces in frame {frame}; per-frame meshes must keep "
                     "their topology (only vertex positions may change)")
             self._write_vertices(name, mesh.vertices)
@@ -159,62 +176,6 @@ class FrameScene:
         if changed:
             self.params.update()
         return changed
-
-
-# ---------------------------------------------------------------------------------------- radar pose
-def resolve_pose(animation: Animation, radar_pose, error_cls: type) -> RadarPose:
-    """``radar_pose`` (a :class:`RadarPose` or a ``(position, orientation)`` pair), else ``animation.radar_pose``.
-
-    Raises ``error_cls`` when neither is given.
-    """
-    pose = radar_pose if radar_pose is not None else animation.radar_pose
-    if pose is None:
-        raise error_cls(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
-    if not isinstance(pose, RadarPose):
-        pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
-    return pose
-
-
-# ---------------------------------------------------------------------------------------- kernels
-@dataclass
-class KernelCounts:
-    """Dr.Jit JIT kernels of a :func:`track_kernels` block (all 0 when not tracked).
-
-    ``launched``: kernels run; ``compiled``: those found neither in Dr.Jit's in-memory nor on-disk
-    cache; ``new``: kernels whose hash was not in ``seen_hashes`` before the block.
-    """
-
-    launched: int = 0
-    compiled: int = 0
-    new: int = 0
-
-
-@contextmanager
-def track_kernels(enabled: bool, seen_hashes: set):
-    """Count the Dr.Jit kernels launched in the ``with`` block; yields a :class:`KernelCounts`.
-
-    With ``enabled`` the ``KernelHistory`` flag is set and the history cleared on entry; the flag
-    gets its previous value back on exit (also on error). On a normal exit the counts are filled
-    in and the block's kernel hashes added to ``seen_hashes`` (the caller's set, kept across calls).
-    """
-    counts = KernelCounts()
-    history_flag = dr.flag(dr.JitFlag.KernelHistory)
-    if enabled:
-        dr.set_flag(dr.JitFlag.KernelHistory, True)
-        dr.kernel_history_clear()
-    try:
-        yield counts
-    finally:
-        if enabled:
-            history = dr.kernel_history()
-            dr.set_flag(dr.JitFlag.KernelHistory, history_flag)
-    if enabled:
-        jit = [k for k in history if k["type"] == dr.KernelType.JIT]
-        hashes = {k["hash"] for k in jit}
-        counts.launched = len(jit)
-        counts.compiled = sum(1 for k in jit if not k.get("cache_hit", False))
-        counts.new = len(hashes - seen_hashes)
-        seen_hashes |= hashes
 
 
 # ---------------------------------------------------------------------------------------- barycentrics
@@ -241,4 +202,4 @@ def interpolate(values, faces, weights) -> np.ndarray:
             + weights[:, 2:3] * values[faces[:, 2]])
 
 
-__all__ = ["FrameScene", "KernelCounts", "barycentric_weights", "interpolate", "resolve_pose", "track_kernels"]
+__all__ = ["LoadedScene", "barycentric_weights", "interpolate", "load_radar_scene"]

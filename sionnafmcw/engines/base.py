@@ -1,0 +1,209 @@
+"""The engine contract: :class:`Engine` owns the per-frame template, each engine writes its hooks.
+
+An engine turns one frame of an :class:`~sionnafmcw.animation.Animation`, seen by a
+:class:`~sionnafmcw.radar.RadarConfig` at a radar pose, into the
+:class:`~sionnafmcw.echoes.Echoes` that the beat synthesizer turns into the IF cube. Every engine
+runs the same steps per frame, written once here in :meth:`Engine.echoes` (the template method):
+
+1. the radar pose of the call (the argument, else the animation's; :func:`resolve_pose`);
+2. ``radar.validate`` against the frame period, then :meth:`Engine._check_radar` (hook);
+3. the scene, loaded once per (animation, radar): on a new key the animation's carrier check,
+   :func:`~sionnafmcw.engines.loaded_scene.load_radar_scene` (scene XML of frame 0 at the
+   carrier), :meth:`Engine._load` (hook: devices, materials, the engine's own per-scene state)
+   and :meth:`LoadedScene.load <sionnafmcw.engines.loaded_scene.LoadedScene.load>` (per-object
+   geometry of frame 0);
+4. the geometry of the frame (the meshes whose PLY changed) and, when it changed,
+   :meth:`Engine._geometry_changed` (hook: what the engine's kernels need after a geometry update);
+5. :meth:`Engine._frame_echoes` (hook: the engine's physics), which returns the echoes and its
+   own per-frame figures;
+6. a :class:`FrameStats` (time, Dr.Jit kernels launched / compiled / new, reload, the engine's
+   figures) appended to :attr:`Engine.stats`.
+
+Steps 3-5 run under :func:`~sionnafmcw.sionna_rt.track_kernels`. Besides the hooks an engine
+declares its registry :attr:`~Engine.name`, its constructor options (keyword arguments with
+defaults, which :func:`sionnafmcw.engines.options` reads) and :meth:`Engine._settings`;
+:meth:`Engine.settings`, ``repr``, ``__call__``, :meth:`Engine.close`, :attr:`Engine.last_stats`
+and :attr:`Engine.scene` come from the base.
+"""
+
+from __future__ import annotations
+
+import abc
+import time
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from ..animation import Animation, RadarPose
+
+
+class EngineError(ValueError):
+    """An engine cannot run this animation / radar / option combination; the message says why."""
+
+
+class SceneGeometryError(EngineError):
+    """A frame's geometry cannot be written into the loaded scene (the message names the file)."""
+
+
+class SceneLoadError(EngineError):
+    """Sionna could not load a frame's scene XML (the message names the file)."""
+
+
+@dataclass
+class FrameStats:
+    """What one :meth:`Engine.echoes` call did.
+
+    ``seconds``: wall time of the call; ``kernels_launched``: Dr.Jit JIT kernels run;
+    ``kernels_compiled``: those found neither in Dr.Jit's in-memory nor on-disk cache (so compiled
+    by LLVM); ``new_kernel_hashes``: kernels this engine had not launched before (independent of
+    the caches: the measure of recompilation); ``reloaded``: the scene was (re)loaded in this call.
+    ``figures`` holds the engine's own figures (the path engine's ``num_paths``, the pixel
+    engine's ``trace_seconds``, ``num_hits``, ``num_contributions``), also readable as attributes
+    (``stats.num_paths``).
+    """
+
+    frame: int
+    seconds: float
+    kernels_launched: int
+    kernels_compiled: int
+    new_kernel_hashes: int
+    reloaded: bool
+    figures: dict = field(default_factory=dict)
+
+    def __getattr__(self, name):
+        if name.startswith("__") or name == "figures":
+            raise AttributeError(name)
+        try:
+            return self.figures[name]
+        except KeyError:
+            raise AttributeError(f"FrameStats has no field or figure {name!r} (figures: "
+                                 f"{', '.join(self.figures) or 'none'})") from None
+
+
+def resolve_pose(animation: Animation, radar_pose) -> RadarPose:
+    """``radar_pose`` (a :class:`RadarPose` or a ``(position, orientation)`` pair), else ``animation.radar_pose``.
+
+    Raises :class:`EngineError` naming the animation when neither is given.
+    """
+    pose = radar_pose if radar_pose is not None else animation.radar_pose
+    if pose is None:
+        raise EngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
+    if not isinstance(pose, RadarPose):
+        pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
+    return pose
+
+
+class Engine(abc.ABC):
+    """Base of every engine: the per-frame template :meth:`echoes` and what all engines share.
+
+    Subclasses set :attr:`name` (their registry name), take their options as keyword arguments
+    with defaults (ending with ``track_kernels=True``, passed on to ``super().__init__``) and
+    implement :meth:`_settings`, :meth:`_load` and :meth:`_frame_echoes`; :meth:`_check_radar`
+    and :meth:`_geometry_changed` are optional hooks. See the module docstring for the order.
+    """
+
+    #: Registry name (``settings()["engine"]``); :func:`sionnafmcw.engines.register` checks it.
+    name: ClassVar[str] = ""
+    #: Constant descriptions of the engine's model, added to :meth:`settings` (not options).
+    FIXED_SETTINGS: ClassVar[dict] = {}
+
+    def __init__(self, track_kernels: bool = True):
+        self.track_kernels = bool(track_kernels)
+        self.stats: list[FrameStats] = []
+        self._seen_hashes: set = set()
+        self._key: tuple | None = None
+        self._loaded = None   # LoadedScene: the Sionna scene and the geometry of the current frame
+        self._state = None    # the engine's own per-scene state (what _load returned)
+
+    # ------------------------------------------------------------------ hooks
+    @abc.abstractmethod
+    def _settings(self) -> dict:
+        """The engine's options as a plain dict (JSON types), in constructor order."""
+
+    @abc.abstractmethod
+    def _load(self, scene, animation: Animation, radar):
+        """Prepare the freshly loaded Sionna ``scene`` (devices, materials) and return the per-scene state.
+
+        Runs before the per-object geometry of frame 0 is read (``scene.mi_scene_params``), so
+        whatever adds scene parameters (devices, velocities) belongs here. The loaded scene is
+        :attr:`_loaded` from then on; the returned object is :attr:`_state`.
+        """
+
+    @abc.abstractmethod
+    def _frame_echoes(self, animation: Animation, radar, frame: int, pose: RadarPose):
+        """The echoes of ``frame`` at ``pose`` and the engine's figures: ``(Echoes, dict)``.
+
+        The geometry of ``frame`` is already in :attr:`_loaded` (faces, world vertices and vertex
+        velocities per object) and in the Sionna scene.
+        """
+
+    def _check_radar(self, radar) -> None:
+        """Reject a radar this engine cannot model (after ``radar.validate``); default: accept all."""
+
+    def _geometry_changed(self) -> None:
+        """Called after the frame's meshes were written into the scene (and only then); default: nothing."""
+
+    # ------------------------------------------------------------------ template
+    def echoes(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None):
+        """Echoes ``[num_tx, num_rx, P]`` of ``frame`` (Tx in physical element order).
+
+        ``radar_pose`` overrides ``animation.radar_pose`` (a :class:`RadarPose` or a
+        ``(position, orientation)`` pair). The scene is loaded on the first call and again when
+        the animation or the radar changes; a :class:`FrameStats` is appended to :attr:`stats`.
+        """
+        # the scene state imports Dr.Jit / Mitsuba / Sionna (sionnafmcw.sionna_rt): loaded when an
+        # engine first runs, so that the registry and the error classes stay light to import
+        from ..sionna_rt import track_kernels
+        from .loaded_scene import LoadedScene, load_radar_scene
+
+        t0 = time.perf_counter()
+        pose = resolve_pose(animation, radar_pose)
+        radar.validate(frame_period=animation.frame_period)
+        self._check_radar(radar)
+        key = (id(animation), str(animation.path), radar.to_json())
+        reloaded = False
+        with track_kernels(self.track_kernels, self._seen_hashes) as kernels:
+            if self._loaded is None or self._key != key:
+                self.close()
+                animation.check_frequency(radar.fc)
+                scene = load_radar_scene(animation.frames[0].xml, radar.fc)
+                state = self._load(scene, animation, radar)
+                self._loaded = LoadedScene.load(scene, animation)
+                self._state, self._key = state, key
+                reloaded = True
+            if self._loaded.update_geometry(animation, frame):
+                self._geometry_changed()
+            echoes, figures = self._frame_echoes(animation, radar, frame, pose)
+        self.stats.append(FrameStats(frame, time.perf_counter() - t0, kernels.launched, kernels.compiled,
+                                     kernels.new, reloaded, dict(figures)))
+        return echoes
+
+    def __call__(self, animation: Animation, radar, frame: int, radar_pose=None):
+        return self.echoes(animation, radar, frame, radar_pose)
+
+    def close(self) -> None:
+        """Drop the loaded scene (the next call loads it again)."""
+        self._loaded = self._state = self._key = None
+
+    # ------------------------------------------------------------------ description
+    def settings(self) -> dict:
+        """The engine settings as a plain dict (for run stores): ``"engine"`` (the registry name),
+        the options (:meth:`_settings`) and the model's constants (:attr:`FIXED_SETTINGS`)."""
+        return {"engine": self.name, **self._settings(), **self.FIXED_SETTINGS}
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(" + ", ".join(f"{k}={v!r}" for k, v in self._settings().items()) + ")"
+
+    @property
+    def last_stats(self) -> FrameStats | None:
+        """The :class:`FrameStats` of the last call (None before the first)."""
+        return self.stats[-1] if self.stats else None
+
+    @property
+    def scene(self):
+        """The Sionna scene currently loaded (None before the first frame)."""
+        return None if self._loaded is None else self._loaded.scene
+
+
+__all__ = ["Engine", "EngineError", "FrameStats", "SceneGeometryError", "SceneLoadError", "resolve_pose"]

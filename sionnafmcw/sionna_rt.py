@@ -1,0 +1,295 @@
+"""The Sionna RT boundary: the one module that imports Dr.Jit, Mitsuba and Sionna RT.
+
+Everything sionnafmcw needs from Sionna RT and its two layers (Mitsuba 3, Dr.Jit) goes through
+here, so that an upgrade of Sionna is a change of this file (and of the pins in
+``pyproject.toml``) and of nothing else:
+
+* **LLVM set-up and imports**: :func:`~sionnafmcw._llvm.configure_llvm` points Dr.Jit at a usable
+  libLLVM before ``drjit`` is first imported; the engines and :mod:`sionnafmcw.materials` take
+  ``dr``, ``mi`` and the Sionna names they use from this module.
+* **Version check**: :data:`VERIFIED_VERSIONS` are the releases this boundary was verified
+  against (the private names it touches below exist there and behave as described). Another
+  release raises :class:`UnverifiedVersionError` at import, naming the package, the installed and
+  the verified versions and the command that installs the verified one; set the environment
+  variable ``SIONNAFMCW_ALLOW_UNVERIFIED=1`` to run anyway (a warning instead).
+* **Minimum segment length** (:func:`set_min_segment_length`): Sionna drops path segments shorter
+  than ``sionna.rt.constants.MIN_SEGMENT_LENGTH`` (1 cm, meant for communication links), which
+  removes every retro-reflected path of a radar (see :mod:`sionnafmcw.engines.path`). The
+  constant is copied into each path-solver module at import, so the patch rewrites it there and
+  fails loudly when a module no longer has it (a silent miss would stop protecting corner
+  reflectors without anyone noticing).
+* **Scene loading at the carrier** (:func:`load_scene_at`): Sionna evaluates every ITU material
+  at its default frequency (3.5 GHz) while the XML is parsed; materials that ITU-R P.2040
+  defines only at millimetre waves then fail to load. The default is set to the carrier for the
+  duration of the load.
+* **Path-solver steps** (:func:`trace_candidates`, :func:`solve_fields`): the steps of
+  ``PathSolver.__call__`` up to the path buffer, without building the ``Paths`` tensors (whose
+  kernels bake the per-frame path count in as a constant), with the candidate count read from
+  the buffer's public ``paths_counter``.
+* **Kernel tracking** (:func:`track_kernels`): Dr.Jit kernel launches of a block.
+"""
+
+from __future__ import annotations
+
+import os
+import threading
+import warnings
+from contextlib import contextmanager
+from dataclasses import dataclass
+from pathlib import Path
+
+from ._llvm import configure_llvm
+
+configure_llvm()  # before the first import of drjit: Dr.Jit reads DRJIT_LIBLLVM_PATH when it loads
+
+import drjit as dr  # noqa: E402  (the one place: after the LLVM set-up above)
+import mitsuba as mi  # noqa: E402
+import sionna.rt as _sionna_rt  # noqa: E402  (sets the Mitsuba variant, registers Sionna's plugins)
+import sionna.rt.path_solvers.image_method as _image_method  # noqa: E402
+import sionna.rt.path_solvers.sb_candidate_generator as _candidate_generator  # noqa: E402
+import sionna.rt.path_solvers.sb_deterministic as _deterministic  # noqa: E402
+import sionna.rt.scene as _sionna_scene  # noqa: E402
+from sionna.rt import (  # noqa: E402
+    AntennaArray, ITURadioMaterial, PathSolver, RadioMaterial, Receiver, Transmitter, load_scene,
+)
+from sionna.rt.antenna_pattern import antenna_pattern_registry  # noqa: E402
+from sionna.rt.constants import DEFAULT_THICKNESS, INVALID_SHAPE, InteractionType  # noqa: E402
+from sionna.rt.radio_materials.itu import ITU_MATERIALS_PROPERTIES  # noqa: E402
+from sionna.rt.radio_materials.scattering_pattern import LambertianPattern  # noqa: E402
+
+# ---------------------------------------------------------------------------------------- versions
+#: Releases this module was verified against (``pyproject.toml`` pins the same major.minor).
+VERIFIED_VERSIONS = {"sionna-rt": "2.2.0", "mitsuba": "3.9.1", "drjit": "1.5.0"}
+
+#: Environment variable that turns an unverified version into a warning.
+ALLOW_UNVERIFIED_ENV = "SIONNAFMCW_ALLOW_UNVERIFIED"
+
+
+class SionnaBoundaryError(RuntimeError):
+    """Sionna RT, Mitsuba or Dr.Jit no longer has what this boundary relies on; the message says what."""
+
+
+class UnverifiedVersionError(SionnaBoundaryError, ImportError):
+    """An installed Sionna RT, Mitsuba or Dr.Jit release this boundary was not verified against."""
+
+
+def installed_versions() -> dict:
+    """The installed versions of the three packages, keyed as :data:`VERIFIED_VERSIONS`."""
+    return {"sionna-rt": str(_sionna_rt.__version__), "mitsuba": str(mi.__version__), "drjit": str(dr.__version__)}
+
+
+def _major_minor(version: str) -> tuple:
+    return tuple(version.split(".")[:2])
+
+
+def check_versions(installed: dict | None = None, allow_unverified: bool | None = None) -> list[str]:
+    """Compare ``installed`` (default: :func:`installed_versions`) with :data:`VERIFIED_VERSIONS`.
+
+    A package whose major.minor differs from the verified one raises
+    :class:`UnverifiedVersionError` naming the package, both versions and the fix; with
+    ``allow_unverified`` (default: the environment variable :data:`ALLOW_UNVERIFIED_ENV` set to
+    ``1``) a warning instead. Returns the mismatch messages (empty when all are verified).
+    """
+    installed = installed_versions() if installed is None else installed
+    if allow_unverified is None:
+        allow_unverified = os.environ.get(ALLOW_UNVERIFIED_ENV, "") == "1"
+    problems = []
+    for package, verified in VERIFIED_VERSIONS.items():
+        have = installed.get(package)
+        if have is None or _major_minor(have) != _major_minor(verified):
+            problems.append(
+                f"{package} {have} is installed, but sionnafmcw's Sionna boundary (sionnafmcw/sionna_rt.py) was "
+                f"verified against {verified}: install it with `pip install '{package}=="
+                f"{'.'.join(_major_minor(verified))}.*'`, or set {ALLOW_UNVERIFIED_ENV}=1 to run anyway "
+                "(Sionna internals that the engines use may differ)")
+    if problems and not allow_unverified:
+        raise UnverifiedVersionError("; ".join(problems))
+    for problem in problems:
+        warnings.warn(problem, stacklevel=2)
+    return problems
+
+
+check_versions()
+
+
+# ---------------------------------------------------------------------------------------- segment length
+#: Sionna's path-solver modules that copy ``MIN_SEGMENT_LENGTH`` at import.
+MIN_SEGMENT_LENGTH_MODULES = (_image_method, _candidate_generator, _deterministic)
+
+
+def set_min_segment_length(length: float) -> None:
+    """Set Sionna's minimum path segment length (m) in every path-solver module that uses it.
+
+    ``sionna.rt.constants.MIN_SEGMENT_LENGTH`` is imported by name into
+    ``sionna.rt.path_solvers.image_method``, ``sb_candidate_generator`` and ``sb_deterministic``,
+    and read when their kernels are traced, so set it before the first path is solved; it applies
+    to every solver in the process. Raises :class:`SionnaBoundaryError` naming the module when one
+    of them no longer has the constant (the protection would otherwise be lost silently).
+    """
+    length = float(length)
+    if not length > 0:
+        raise ValueError(f"set_min_segment_length: length must be > 0 m, got {length!r}")
+    missing = [m.__name__ for m in MIN_SEGMENT_LENGTH_MODULES if not hasattr(m, "MIN_SEGMENT_LENGTH")]
+    if missing:
+        raise SionnaBoundaryError(
+            f"{', '.join(missing)} has no MIN_SEGMENT_LENGTH any more (verified with sionna-rt "
+            f"{VERIFIED_VERSIONS['sionna-rt']}): the radar's minimum segment length cannot be set, and short "
+            "retro-reflected paths (corner reflectors) would be dropped; update sionnafmcw/sionna_rt.py "
+            "for this Sionna release")
+    for module in MIN_SEGMENT_LENGTH_MODULES:
+        module.MIN_SEGMENT_LENGTH = length
+
+
+def min_segment_length() -> dict:
+    """The minimum segment length (m) each path-solver module currently uses, by module name."""
+    return {m.__name__: getattr(m, "MIN_SEGMENT_LENGTH", None) for m in MIN_SEGMENT_LENGTH_MODULES}
+
+
+# ---------------------------------------------------------------------------------------- scene loading
+_LOAD_LOCK = threading.Lock()
+
+
+def load_scene_at(xml, frequency: float):
+    """Load the scene XML ``xml`` with ``merge_shapes=False`` with every material built at ``frequency`` (Hz).
+
+    Sionna builds each ITU material while the XML is parsed, at
+    ``sionna.rt.scene.DEFAULT_FREQUENCY`` (3.5 GHz), before the caller can set the scene's
+    frequency; that default is set to ``frequency`` for the duration of the load (restored
+    afterwards, also on error, under a lock). Mitsuba's warnings about the PLY velocity properties
+    are silenced while loading. Sionna's own exception propagates.
+    """
+    if not hasattr(_sionna_scene, "DEFAULT_FREQUENCY"):
+        raise SionnaBoundaryError(
+            "sionna.rt.scene has no DEFAULT_FREQUENCY any more: scenes cannot be loaded at the carrier; "
+            "update sionnafmcw/sionna_rt.py for this Sionna release")
+    old_level = mi.log_level()
+    with _LOAD_LOCK:
+        old_default = _sionna_scene.DEFAULT_FREQUENCY
+        _sionna_scene.DEFAULT_FREQUENCY = float(frequency)
+        mi.set_log_level(mi.LogLevel.Error)  # PLY vx/vy/vz properties make Mitsuba warn
+        try:
+            return load_scene(str(Path(xml)), merge_shapes=False)
+        finally:
+            _sionna_scene.DEFAULT_FREQUENCY = old_default
+            mi.set_log_level(old_level)
+
+
+# ---------------------------------------------------------------------------------------- path solver
+@dataclass
+class Candidates:
+    """The candidate paths of one :func:`trace_candidates` call and the solver inputs they were traced with.
+
+    ``found`` is the number of candidates the generator counted (the buffer's ``paths_counter``),
+    ``capacity`` the buffer size; ``found >= capacity`` means candidates were dropped.
+    """
+
+    buffer: object
+    found: int
+    capacity: int
+    src_positions: object
+    tgt_positions: object
+    src_orientations: object
+    tgt_orientations: object
+    src_patterns: object
+    tgt_patterns: object
+
+
+def trace_candidates(solver, scene, *, samples_per_src: int, max_num_paths_per_src: int, max_depth: int,
+                     specular_reflection: bool, diffuse_reflection: bool, refraction: bool, diffraction: bool,
+                     seed: int) -> Candidates:
+    """The first step of ``PathSolver.__call__`` (no line of sight): candidate paths of ``scene``.
+
+    Flushes pending parameter updates (``dr.eval()``, so every frame has the same kernel
+    partition), takes the per-element sources and targets (``synthetic_array=False``) as opaque
+    values, runs the solver's candidate generator and evaluates the buffer. The caller checks
+    :attr:`Candidates.found` against :attr:`Candidates.capacity` before :func:`solve_fields`.
+    """
+    scene.all_set(radio_map=False)
+    dr.eval()  # flush the frame's parameter updates: same kernel partition in every frame
+    src_positions, src_orientations, _, _ = scene.sources(False, True)
+    tgt_positions, tgt_orientations, _, _ = scene.targets(False, True)
+    src_patterns = scene.tx_array.antenna_pattern.patterns
+    tgt_patterns = scene.rx_array.antenna_pattern.patterns
+    dr.make_opaque(src_positions, tgt_positions, src_orientations, tgt_orientations)
+    buf = solver._candidate_generator(
+        mi_scene=scene.mi_scene, src_positions=src_positions, tgt_positions=tgt_positions,
+        samples_per_src=samples_per_src, max_num_paths_per_src=max_num_paths_per_src,
+        max_depth=max_depth, los=False, specular_reflection=specular_reflection,
+        diffuse_reflection=diffuse_reflection, refraction=refraction, diffraction=diffraction,
+        edge_diffraction=False, seed=seed)
+    buf.schedule()
+    dr.eval()
+    return Candidates(buf, int(buf.paths_counter[0]), int(buf.buffer_size), src_positions, tgt_positions,
+                      src_orientations, tgt_orientations, src_patterns, tgt_patterns)
+
+
+def solve_fields(solver, scene, candidates: Candidates, *, samples_per_src: int, diffraction: bool):
+    """The rest of ``PathSolver.__call__`` up to the path buffer: image method, fields, valid paths only.
+
+    Shrinks the candidate buffer to the paths found, runs the solver's image method and field
+    calculator and discards the invalid paths; returns Sionna's ``PathsBuffer``.
+    """
+    buf = candidates.buffer
+    buf.shrink()
+    buf.detach_geometry()
+    buf = solver._image_method(scene=scene.mi_scene, paths=buf, src_positions=candidates.src_positions,
+                               tgt_positions=candidates.tgt_positions, diffraction=diffraction,
+                               diffraction_lit_region=True)
+    buf = solver._field_calculator(
+        wavelength=scene.wavelength, paths=buf, samples_per_src=samples_per_src,
+        diffraction=diffraction, src_positions=candidates.src_positions, tgt_positions=candidates.tgt_positions,
+        src_orientations=candidates.src_orientations, tgt_orientations=candidates.tgt_orientations,
+        src_antenna_patterns=candidates.src_patterns, tgt_antenna_patterns=candidates.tgt_patterns)
+    buf.discard_invalid()
+    return buf
+
+
+# ---------------------------------------------------------------------------------------- kernels
+@dataclass
+class KernelCounts:
+    """Dr.Jit JIT kernels of a :func:`track_kernels` block (all 0 when not tracked).
+
+    ``launched``: kernels run; ``compiled``: those found neither in Dr.Jit's in-memory nor on-disk
+    cache; ``new``: kernels whose hash was not in ``seen_hashes`` before the block.
+    """
+
+    launched: int = 0
+    compiled: int = 0
+    new: int = 0
+
+
+@contextmanager
+def track_kernels(enabled: bool, seen_hashes: set):
+    """Count the Dr.Jit kernels launched in the ``with`` block; yields a :class:`KernelCounts`.
+
+    With ``enabled`` the ``KernelHistory`` flag is set and the history cleared on entry; the flag
+    gets its previous value back on exit (also on error). On a normal exit the counts are filled
+    in and the block's kernel hashes added to ``seen_hashes`` (the caller's set, kept across calls).
+    """
+    counts = KernelCounts()
+    history_flag = dr.flag(dr.JitFlag.KernelHistory)
+    if enabled:
+        dr.set_flag(dr.JitFlag.KernelHistory, True)
+        dr.kernel_history_clear()
+    try:
+        yield counts
+    finally:
+        if enabled:
+            history = dr.kernel_history()
+            dr.set_flag(dr.JitFlag.KernelHistory, history_flag)
+    if enabled:
+        jit = [k for k in history if k["type"] == dr.KernelType.JIT]
+        hashes = {k["hash"] for k in jit}
+        counts.launched = len(jit)
+        counts.compiled = sum(1 for k in jit if not k.get("cache_hit", False))
+        counts.new = len(hashes - seen_hashes)
+        seen_hashes |= hashes
+
+
+__all__ = [
+    "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
+    "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
+    "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
+    "VERIFIED_VERSIONS", "antenna_pattern_registry", "check_versions", "dr", "installed_versions", "load_scene_at",
+    "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
+]
