@@ -2,7 +2,7 @@
 
 Every function draws into ``ax`` (a new figure with the Agg backend when None) and returns the
 axes; :func:`save` writes the figure as PNG and closes it. Velocity axes are the radial velocity
-:math:`v_r = \\dot R` (m/s, positive receding, NOTES section 2). Ground truth is drawn as red stars.
+:math:`v_r = \\dot R` (m/s, positive receding, :mod:`sionnafmcw.store`). Ground truth is drawn as red stars.
 
 =============================  =================================================================
 :func:`plot_range_doppler`     range-Doppler map of one CPI, range (m) against :math:`v_r` (m/s)

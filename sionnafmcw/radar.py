@@ -1,6 +1,6 @@
 r"""Radar configuration: chirp, timing, TDM-MIMO array and link budget.
 
-Timing of one frame (coherent processing interval, CPI), NOTES section 2:
+Timing of one frame (coherent processing interval, CPI); the run store keeps it (:mod:`sionnafmcw.store`):
 
 * the transmitters fire in the order ``tx_order`` (physical element indices); chirp :math:`l`
   of the transmitter at position :math:`q` of that order starts at
@@ -10,7 +10,7 @@ Timing of one frame (coherent processing interval, CPI), NOTES section 2:
 The ADC window is centred :math:`t_{mid} = t_{adc} + (N_s - 1)/(2F_s)` into the ramp, where the
 instantaneous frequency is the *sweep centre* :math:`f_{mid} = f_c + \mu t_{mid}`. Phase-based
 estimates (Doppler, angle) see :math:`f_{mid}`, so velocity and angle axes use
-:math:`\lambda_{mid} = c/f_{mid}` (NOTES section 2).
+:math:`\lambda_{mid} = c/f_{mid}`.
 
 Derived figures (complex baseband sampling):
 

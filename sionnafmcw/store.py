@@ -1,21 +1,68 @@
-"""The run store: a Zarr v3 group written frame by frame (NOTES section 3).
+r"""The run store: what :func:`~sionnafmcw.simulation.simulate` writes and every reader reads.
 
-Layout (named dimensions, readable with ``xarray.open_zarr(path)``):
+This module is the data contract of a run. :class:`RunStore` writes it, :func:`open_run` reads it
+(as a :class:`Run`); nothing else should decode its arrays or attributes by hand.
 
-=========================  =======================================  ===========
-variable                   dimensions                               dtype
-=========================  =======================================  ===========
-``iq``                     frame, chirp, tx, rx, sample             complex64
-``frame_time``             frame                                    float64, s
-``truth_position``         frame, object, xyz                       float64, m
-``truth_velocity``         frame, object, xyz                       float64, m/s
-``truth_radial_velocity``  frame, object                            float64, m/s
-``frame_done``             frame                                    bool
-``object``                 object (coordinate: moving object names) str
-=========================  =======================================  ===========
+Layout
+------
+A Zarr v3 group with named dimensions (so ``xarray.open_zarr(path)`` reads it too):
 
-Attributes: ``radar`` (``RadarConfig.to_dict()``), ``radar_pose``, ``engine`` (name and
-settings), ``scene``, ``seed``, ``noise``, ``leakage_db``, ``sionnafmcw_version``.
+=========================  ==================================  =========  =====================================
+variable                   dimensions                          dtype      meaning (SI units)
+=========================  ==================================  =========  =====================================
+``iq``                     frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
+``frame_time``             frame                               float64    CPI start :math:`t_n` (s)
+``truth_position``         frame, object, xyz                  float64    object centroid at :math:`t_n` (m, world)
+``truth_velocity``         frame, object, xyz                  float64    object velocity at :math:`t_n` (m/s, world)
+``truth_radial_velocity``  frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
+``frame_done``             frame                               bool       every array of the frame is written
+``object``                 object (coordinate)                 str        names of the moving objects
+=========================  ==================================  =========  =====================================
+
+``tx`` and ``rx`` are in *physical* element order (the rows of ``RadarConfig.tx_positions`` and
+``rx_positions``), not in firing order. ``xyz`` is the world frame of the scene (z up). Frames not
+done hold the fill values (0 for ``iq``, NaN for the float arrays).
+
+Attributes
+----------
+``format``
+    ``"sionnafmcw-run/1"`` (:data:`FORMAT`).
+``radar``
+    The full :class:`~sionnafmcw.radar.RadarConfig` as :meth:`~sionnafmcw.radar.RadarConfig.to_dict`
+    (its own field names, SI units, element positions in the radar frame).
+``radar_pose``
+    ``{"position": [x, y, z], "orientation": [yaw, pitch, roll]}`` (m, rad): the radar frame in the
+    world (:mod:`sionnafmcw.geometry`).
+``engine``
+    The engine's settings, ``{"engine": name, option: value, ...}``.
+``scene``
+    Absolute path of the animation directory that was simulated.
+``seed``, ``noise``, ``leakage_db``
+    Frame :math:`n`'s receiver noise comes from ``numpy.random.default_rng([seed, n])`` when
+    ``noise`` is true; ``leakage_db`` is the direct Tx-Rx coupling (dB) or null.
+``sionnafmcw_version``
+    The version that wrote the store (not compared when resuming).
+
+Conventions
+-----------
+*Timing (TDM).* Frame :math:`n`'s CPI starts at :math:`t_n` = ``frame_time[n]``. With :math:`M`
+transmitters fired in the order ``radar.tx_order``, chirp :math:`l` of the Tx at position :math:`q`
+of that order starts at :math:`t_n + (lM + q)T_c`, and fast-time sample :math:`k` is taken
+``adc_start_time`` :math:`+ k/F_s` after the chirp start (:mod:`sionnafmcw.radar`). So ``iq[n, l, m]``
+of Tx :math:`m` is :math:`q_m T_c` later than that of the first Tx to fire
+(:meth:`~sionnafmcw.radar.RadarConfig.chirp_start_times`).
+
+*Beat signal and Doppler sign.* ``iq`` is :math:`x = s_{tx}\,s_{rx}^*`: a reflector at delay
+:math:`\tau` beats at the positive frequency :math:`\mu\tau`, and its slow-time phase turns as
+:math:`-2\pi f_D t` with :math:`f_D = -2\dot R/\lambda`. Every velocity of the project is the range
+rate :math:`v_r = \dot R`, positive when receding (:mod:`sionnafmcw.synthesis`,
+:mod:`sionnafmcw.processing`).
+
+*Phase centre.* Ranges and radial velocities are measured from the phase centre of the virtual
+array, :math:`\mathbf c_w` = :func:`sionnafmcw.geometry.world_phase_centre` (radar frame:
+:func:`sionnafmcw.array.phase_centre`), not from the radar origin: that is where a range peak
+sits. ``truth_radial_velocity`` is :math:`(\mathbf p - \mathbf c_w)\cdot\mathbf v / |\mathbf p -
+\mathbf c_w|` at :math:`t_n`; :meth:`Run.truth_at_cpi_centre` moves it to the CPI centre.
 
 Resumable and never half-written: ``iq`` has one chunk per frame, and ``frame_done[f]`` is set
 only after every array of frame ``f`` is written. Re-opening a store with the same settings
@@ -27,6 +74,7 @@ from __future__ import annotations
 
 import json
 import warnings
+from functools import cached_property
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +91,7 @@ def _json_safe(value):
     return json.loads(json.dumps(value, default=lambda o: o.tolist() if hasattr(o, "tolist") else str(o)))
 
 
+# ===================================================================================== writer
 class RunStore:
     """Writer of one run store (see the module docstring)."""
 
@@ -60,10 +109,11 @@ class RunStore:
             try:
                 group = zarr.open_group(str(path), mode="r+", zarr_format=3)
             except Exception as exc:  # not a Zarr group at all
-                raise RunStoreError(f"{path} exists and is not a run store ({exc}); choose another --out path") from exc
+                raise RunStoreError(f"{path} exists and is not a run store ({exc}); "
+                                    "write the run to another path") from exc
             old = dict(group.attrs)
             if old.get("format") != FORMAT:
-                raise RunStoreError(f"{path} exists and is not a sionnafmcw run store; choose another output path")
+                raise RunStoreError(f"{path} exists and is not a sionnafmcw run store; write the run to another path")
             for key, value in attrs.items():
                 if key == "sionnafmcw_version":
                     continue
@@ -119,17 +169,268 @@ class RunStore:
         g["frame_done"][index] = True
 
 
-def open_run(path):
-    """Open a run store as an ``xarray.Dataset`` (lazy), checking that it is one."""
-    import xarray as xr
+# ===================================================================================== truth maths
+def radial_velocity_at_cpi_centre(times, positions, velocities, centre, cpi_duration: float) -> np.ndarray:
+    r"""Range rate of one object at every CPI centre, from the truth sampled at the CPI starts.
 
+    A CPI of frame :math:`n` spans :math:`[t_n, t_n + LMT_c]`; the slow-time phase of a target whose
+    range rate changes during the CPI is, to first order, that of its mean range rate, which for a
+    constant acceleration is the range rate at the CPI centre :math:`t_c = t_n + LMT_c/2`. The store
+    holds position :math:`\mathbf p_n` and velocity :math:`\mathbf v_n` at :math:`t_n`. With the
+    acceleration :math:`\mathbf a_n` from central differences of the velocities (one-sided at the
+    ends; zero for a single frame), and :math:`\Delta = t_c - t_n`,
+
+    .. math::
+        \mathbf p_c = \mathbf p_n + \mathbf v_n\Delta + \tfrac12\mathbf a_n\Delta^2, \qquad
+        \mathbf v_c = \mathbf v_n + \mathbf a_n\Delta, \qquad
+        \dot R_c = \mathbf v_c\cdot\frac{\mathbf p_c - \mathbf c}{\lVert\mathbf p_c - \mathbf c\rVert},
+
+    with :math:`\mathbf c` the world phase centre. The residual is of the order of the jerk:
+    :math:`|\dddot{\mathbf p}|\Delta^2/2 = (v^3/r^2)\Delta^2/2 \approx 1` mm/s for the paper's circle
+    walk (4.52 m/s on a 3 m circle, :math:`\Delta` = 13.4 ms), while using :math:`\dot R(t_n)` instead
+    would be wrong by up to :math:`(v^2/r)\Delta \approx 0.09` m/s.
+
+    Parameters
+    ----------
+    times : ``[frame]`` s; positions, velocities : ``[frame, 3]`` m, m/s (world);
+    centre : ``[3]`` m (world); cpi_duration : :math:`LMT_c` (s).
+    """
+    t = np.asarray(times, float)
+    p = np.asarray(positions, float)
+    v = np.asarray(velocities, float)
+    a = np.gradient(v, t, axis=0) if t.size > 1 else np.zeros_like(v)
+    dt = cpi_duration / 2.0
+    pc = p + v * dt + 0.5 * a * dt**2
+    vc = v + a * dt
+    los = pc - np.asarray(centre, float)
+    return np.sum(vc * los, axis=-1) / np.linalg.norm(los, axis=-1)
+
+
+# ===================================================================================== reader
+class Run:
+    """A run store opened for reading (:func:`open_run`): the layout of the module docstring, decoded.
+
+    Arrays are read from the Zarr group on demand (nothing is cached but the attributes), so a
+    :class:`Run` of a store that is still being written sees the frames finished since. Per-frame
+    truth is NaN for frames not done. ``run[name]``, ``name in run``, ``run.sizes`` and any other
+    attribute that is not the run's own go to :attr:`dataset` (the lazy ``xarray.Dataset``), so code
+    written for the dataset keeps working.
+    """
+
+    def __init__(self, path: Path, group: zarr.Group):
+        self.path = Path(path)
+        self._group = group
+
+    # ------------------------------------------------------------------ whole store
+    @cached_property
+    def dataset(self):
+        """The store as a lazy ``xarray.Dataset`` (dask arrays, named dimensions)."""
+        import xarray as xr
+
+        try:
+            return xr.open_zarr(str(self.path), consolidated=True)
+        except Exception as exc:
+            raise RunStoreError(f"{self.path} is not a readable run store: {exc}") from exc
+
+    @cached_property
+    def attrs(self) -> dict:
+        """The store's attributes (see the module docstring), as plain JSON values."""
+        return dict(self._group.attrs)
+
+    def _attr(self, key: str):
+        if key not in self.attrs:
+            raise RunStoreError(f"{self.path}: the run store has no {key!r} attribute")
+        return self.attrs[key]
+
+    @cached_property
+    def radar(self):
+        """The :class:`~sionnafmcw.radar.RadarConfig` of the run."""
+        from .radar import RadarConfig, RadarConfigError
+
+        try:
+            return RadarConfig.from_dict(self._attr("radar"))
+        except RadarConfigError as exc:
+            raise RunStoreError(f"{self.path}: attribute 'radar': {exc}") from exc
+
+    @cached_property
+    def pose(self):
+        """The radar's :class:`~sionnafmcw.animation.RadarPose` in the world."""
+        from .animation import RadarPose
+
+        pose = self._attr("radar_pose")
+        try:
+            return RadarPose(np.asarray(pose["position"], float).reshape(3),
+                             np.asarray(pose["orientation"], float).reshape(3))
+        except (KeyError, TypeError, ValueError) as exc:
+            raise RunStoreError(f"{self.path}: attribute 'radar_pose' must be {{'position': [x, y, z], "
+                                f"'orientation': [yaw, pitch, roll]}}, got {pose!r}") from exc
+
+    @cached_property
+    def phase_centre(self) -> np.ndarray:
+        """World position of the virtual array's phase centre ``[3]`` (m): ranges are measured from it."""
+        from .geometry import world_phase_centre
+
+        return world_phase_centre(self.radar, self.pose.position, self.pose.orientation)
+
+    @property
+    def engine(self) -> dict:
+        """The engine's settings, ``{"engine": name, option: value, ...}``."""
+        return dict(self.attrs.get("engine") or {})
+
+    @property
+    def scene(self) -> Path | None:
+        """The animation directory that was simulated (None when the store does not say)."""
+        scene = self.attrs.get("scene")
+        return Path(scene) if scene else None
+
+    @cached_property
+    def objects(self) -> list[str]:
+        """Names of the moving objects whose truth the store holds (the ``object`` axis)."""
+        arr = self._group["object"]
+        return [str(x) for x in np.asarray(arr[:])] if arr.shape[0] else []
+
+    @property
+    def num_frames(self) -> int:
+        """Frames of the animation (done or not)."""
+        return int(self._group["frame_done"].shape[0])
+
+    # ------------------------------------------------------------------ frames
+    @property
+    def done_frames(self) -> np.ndarray:
+        """Indices of the frames completely written, sorted (int ``[done]``)."""
+        return np.flatnonzero(np.asarray(self._group["frame_done"][:], dtype=bool))
+
+    @property
+    def done_mask(self) -> np.ndarray:
+        """``[frame]`` bool: which frames are completely written (``frame_done``)."""
+        return np.asarray(self._group["frame_done"][:], dtype=bool)
+
+    @property
+    def frame_times(self) -> np.ndarray:
+        """CPI start times :math:`t_n` ``[frame]`` (s); NaN for frames not done."""
+        return np.where(self.done_mask, np.asarray(self._group["frame_time"][:], float), np.nan)
+
+    def _check_done(self, frames) -> None:
+        done = self.done_mask
+        frames = np.atleast_1d(np.asarray(frames))
+        bad = frames[(frames < -done.size) | (frames >= done.size)]
+        if bad.size:
+            raise RunStoreError(f"{self.path}: frame {int(bad[0])} is outside the run's 0..{done.size - 1}")
+        missing = frames[~done[frames]]
+        if missing.size:
+            raise RunStoreError(f"{self.path}: frame {int(missing[0])} is not written yet "
+                                f"({done.sum()} of {done.size} frames done)")
+
+    def cube(self, frame: int) -> np.ndarray:
+        """Beat cube of one frame, complex64 ``[chirp, tx, rx, sample]`` (Tx in physical order)."""
+        frame = int(frame)
+        self._check_done(frame)
+        return np.asarray(self._group["iq"][frame])
+
+    def cubes(self, frames) -> np.ndarray:
+        """Beat cubes ``[frame, chirp, tx, rx, sample]`` of a ``slice`` or a list of frames (all done)."""
+        if isinstance(frames, slice):
+            frames = np.arange(self.num_frames)[frames]
+        frames = np.asarray(frames, dtype=int).reshape(-1)
+        self._check_done(frames)
+        if frames.size and np.all(np.diff(frames) == 1):
+            return np.asarray(self._group["iq"][int(frames[0]):int(frames[-1]) + 1])
+        return np.stack([np.asarray(self._group["iq"][int(f)]) for f in frames]) if frames.size else \
+            np.zeros((0, *self._group["iq"].shape[1:]), np.complex64)
+
+    # ------------------------------------------------------------------ truth
+    def _object_index(self, obj: str) -> int:
+        if obj not in self.objects:
+            have = ", ".join(self.objects) if self.objects else "no moving objects"
+            raise RunStoreError(f"{self.path}: object {obj!r} is not in the run's truth; it has {have}")
+        return self.objects.index(obj)
+
+    def truth(self, obj: str) -> np.ndarray:
+        """Radial velocity :math:`\\dot R` of ``obj`` at the CPI starts ``[frame]`` (m/s, + receding, from the phase centre)."""
+        k = self._object_index(obj)
+        return np.where(self.done_mask, np.asarray(self._group["truth_radial_velocity"][:, k], float), np.nan)
+
+    def truth_position(self, obj: str) -> np.ndarray:
+        """World position of ``obj`` at the CPI starts ``[frame, 3]`` (m); NaN for frames not done."""
+        k = self._object_index(obj)
+        return np.where(self.done_mask[:, None], np.asarray(self._group["truth_position"][:, k, :], float), np.nan)
+
+    def truth_velocity(self, obj: str) -> np.ndarray:
+        """World velocity of ``obj`` at the CPI starts ``[frame, 3]`` (m/s); NaN for frames not done."""
+        k = self._object_index(obj)
+        return np.where(self.done_mask[:, None], np.asarray(self._group["truth_velocity"][:, k, :], float), np.nan)
+
+    def truth_range(self, obj: str) -> np.ndarray:
+        r"""Range of ``obj`` from the phase centre at the CPI starts, :math:`\lVert\mathbf p_n - \mathbf c_w\rVert` ``[frame]`` (m)."""
+        return np.linalg.norm(self.truth_position(obj) - self.phase_centre, axis=-1)
+
+    def truth_at_cpi_centre(self, obj: str) -> np.ndarray:
+        """Radial velocity of ``obj`` at every CPI centre ``[frame]`` (m/s): :func:`radial_velocity_at_cpi_centre`
+        on the done frames (the acceleration from differences between them); NaN for frames not done."""
+        done = self.done_frames
+        out = np.full(self.num_frames, np.nan)
+        if done.size:
+            out[done] = radial_velocity_at_cpi_centre(
+                self.frame_times[done], self.truth_position(obj)[done], self.truth_velocity(obj)[done],
+                self.phase_centre, self.radar.cpi_duration)
+        return out
+
+    def truth_in_radar_frame(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
+        r"""Range (m) and azimuth (rad) of every object ``[object]`` in frame ``frame``, as the radar sees them.
+
+        The object's position at the CPI start goes to the radar frame
+        (:func:`sionnafmcw.geometry.world_to_radar`) and is taken relative to the phase centre
+        :math:`\mathbf c_r` (:func:`sionnafmcw.array.phase_centre`):
+        :math:`\mathbf q = \mathbf R^T(\mathbf p - \mathbf o) - \mathbf c_r`, range :math:`\lVert\mathbf q\rVert`,
+        azimuth :math:`\operatorname{atan2}(q_y, q_x)` (positive towards the radar's +y).
+        Empty arrays when the run has no moving objects.
+        """
+        from .geometry import world_to_radar
+
+        frame = int(frame)
+        self._check_done(frame)
+        if not self.objects:
+            return np.zeros(0), np.zeros(0)
+        positions = np.asarray(self._group["truth_position"][frame], float)
+        local = world_to_radar(positions, self.pose.position, self.pose.orientation) - self.radar.phase_centre
+        return np.linalg.norm(local, axis=-1), np.arctan2(local[:, 1], local[:, 0])
+
+    # ------------------------------------------------------------------ the dataset's interface
+    def __getitem__(self, name):
+        return self.dataset[name]
+
+    def __contains__(self, name) -> bool:
+        return name in self.dataset
+
+    @property
+    def sizes(self):
+        """The dataset's dimension sizes (``frame``, ``chirp``, ``tx``, ``rx``, ``sample``, ``object``, ``xyz``)."""
+        return self.dataset.sizes
+
+    def __getattr__(self, name):
+        # only reached for names that are not the run's own: the dataset's variables and methods
+        if name.startswith("_") or name in ("path", "dataset"):
+            raise AttributeError(name)
+        return getattr(self.dataset, name)
+
+    def __reduce__(self):
+        return open_run, (str(self.path),)
+
+    def __repr__(self) -> str:
+        done = self.done_mask
+        return (f"Run({str(self.path)!r}, radar={self.radar.name!r}, engine={self.engine.get('engine')!r}, "
+                f"frames done {int(done.sum())}/{done.size}, objects={self.objects})")
+
+
+def open_run(path) -> Run:
+    """Open a run store for reading (a :class:`Run`), checking that it is one."""
     path = Path(path)
     if not path.exists():
         raise RunStoreError(f"{path}: no such run store")
     try:
-        ds = xr.open_zarr(str(path), consolidated=True)
+        group = zarr.open_group(str(path), mode="r", zarr_format=3)
     except Exception as exc:
         raise RunStoreError(f"{path} is not a readable run store: {exc}") from exc
-    if ds.attrs.get("format") != FORMAT:
+    if group.attrs.get("format") != FORMAT:
         raise RunStoreError(f"{path} is not a sionnafmcw run store (attribute 'format' missing)")
-    return ds
+    return Run(path, group)

@@ -263,7 +263,7 @@ def test_generate_index_failures_resume_and_spec_mismatch(tmp_path, scheduler):
     assert all(int(again.sel(item=i).attempts) == 2 for i in failing)     # failed items are retried
     assert _mtimes(cut, 0) == before["cut0"] and _mtimes(cut, 1) != before["cut1"]   # only frame 1 redone
     assert _mtimes(whole, 0) == before["whole0"] and _mtimes(whole, 1) == before["whole1"]
-    assert open_run(cut).frame_done.values.all()
+    assert open_run(cut).done_mask.all()
 
     # ---- a different spec into the same folder is refused, naming what differs
     with pytest.raises(DatasetError, match=r"different spec \(differs in: count\).*new folder"):
@@ -286,7 +286,7 @@ def test_frames_subset_and_radar_pose_override(tmp_path, scheduler):
     row = index.sel(item="000000")
     assert row.status.item() == "complete" and int(row.frames_done) == 1
     run = open_run(tmp_path / "sub" / "items" / "000000" / "run.zarr")
-    assert list(run.frame_done.values) == [False, True]
+    assert list(run.done_mask) == [False, True] and list(run.done_frames) == [1]
     assert run.attrs["radar_pose"] == pose
     assert np.isnan(row.radial_velocity.values[0])
     x = 3.0 + 1.5 / 24.0

@@ -1,7 +1,7 @@
 """Tests of sionnafmcw.processing on cubes built from the closed-form beat model.
 
-The cubes are NOT made by the synthesizer: :func:`beat_cube` evaluates NOTES section 2's beat
-model directly, with exact per-element delays of moving point targets,
+The cubes are NOT made by the synthesizer: :func:`beat_cube` evaluates the beat model of
+:mod:`sionnafmcw.synthesis` directly, with exact per-element delays of moving point targets,
 
     x[l, m, n, k] = A exp(j 2 pi (f_c tau + mu tau t_k - mu tau^2 / 2)),
     tau = (|p(t) - tx_m| + |p(t) - rx_n|) / c,   p(t) = (R0 + v t) u(az, el),

@@ -74,7 +74,7 @@ def test_fast_sum_handles_paths_beyond_max_range_and_padding(small_radar):
 
 
 def test_single_sample_matches_closed_form(small_radar):
-    """One contribution, one sample, written out by hand from NOTES section 2."""
+    """One contribution, one sample, written out by hand from the beat model of :mod:`sionnafmcw.synthesis`."""
     radar = small_radar.replace(tx_order=[1, 2, 0])
     a, tau0, fd = 0.3 - 0.2j, 41e-9, -812.0
     echoes = Echoes(np.full((3, 4, 1), a), np.full((3, 4, 1), tau0), np.full((3, 4, 1), fd))

@@ -23,7 +23,7 @@ import tensorflow as tf
 
 from sionnafmcw import RadarConfig, open_run, processing
 from sionnafmcw.dataset import DatasetError, generate, open_index
-from sionnafmcw.geometry import phase_centre
+from sionnafmcw.geometry import world_phase_centre
 
 SPEC = {"name": "tf-plates", "scenario": "moving_plate", "count": 3, "seed": 5,
         "radar": {"preset": "walk-77ghz", "num_chirps": 16, "num_samples": 64},
@@ -84,8 +84,7 @@ def test_labels_equal_store_truth(data):
         np.testing.assert_array_equal(y["radial_velocity"].numpy(),
                                       run.truth_radial_velocity.values[frames, 0].astype(np.float32))
         np.testing.assert_array_equal(y["frame_time"].numpy(), run.frame_time.values[frames])
-        centre = phase_centre(RADAR, np.array(run.attrs["radar_pose"]["position"]),
-                              np.array(run.attrs["radar_pose"]["orientation"]))
+        centre = world_phase_centre(RADAR, run.pose.position, run.pose.orientation)
         np.testing.assert_allclose(y["range"].numpy(),
                                    np.linalg.norm(run.truth_position.values[frames, 0] - centre, axis=-1), rtol=1e-6)
         assert float(y["speed"]) == np.float32(index.param_speed.sel(item=item).item())

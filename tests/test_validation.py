@@ -20,9 +20,10 @@ import json
 import numpy as np
 import pytest
 
+from sionnafmcw.geometry import world_phase_centre
 from sionnafmcw.radar import RadarConfig
+from sionnafmcw.store import RunStore, open_run
 from sionnafmcw.validation import circle_walk, names, pixel_vs_path, run
-from sionnafmcw.validation.common import truth_at_cpi_centre
 
 
 def test_experiments_are_registered():
@@ -57,25 +58,28 @@ def test_circle_walk_pixel_engine_reduced(tmp_path, capsys):
         assert (tmp_path / name).stat().st_size > 10_000
 
 
-def test_truth_at_cpi_centre_for_circular_motion():
-    """Uniform circular motion sampled at frame times: the CPI-centre radial velocity in closed form."""
-    import xarray as xr
-
-    radar = RadarConfig.preset("walk-77ghz")
+def test_truth_at_cpi_centre_for_circular_motion(tmp_path):
+    """Uniform circular motion sampled at frame times, written to a run store: the CPI-centre radial
+    velocity the reader gives against the closed form."""
+    radar = RadarConfig.preset("walk-77ghz").replace(num_samples=8)  # the preset's CPI (26.9 ms), small cubes
     fps, r, v = 24.0, 3.0, 4.52
     w = v / r
     t = np.arange(24) / fps
     pos = np.stack([r * np.cos(w * t), r * np.sin(w * t), np.ones_like(t)], -1)[:, None, :]
     vel = np.stack([-v * np.sin(w * t), v * np.cos(w * t), np.zeros_like(t)], -1)[:, None, :]
     radar_position = np.array([-5.0, 0.0, 1.0])
-    ds = xr.Dataset({"frame_time": ("frame", t), "truth_position": (("frame", "object", "xyz"), pos),
-                     "truth_velocity": (("frame", "object", "xyz"), vel)},
-                    coords={"object": ["torso"]},
-                    attrs={"radar_pose": {"position": radar_position.tolist(), "orientation": [0.0, 0.0, 0.0]}})
-    got = truth_at_cpi_centre(ds, radar, "torso")
-    from sionnafmcw.geometry import phase_centre
+    store = RunStore.open(tmp_path / "run.zarr", radar, t.size, ["torso"],
+                          attrs={"radar": radar.to_dict(),
+                                 "radar_pose": {"position": radar_position.tolist(), "orientation": [0.0, 0.0, 0.0]}})
+    cube = np.zeros((radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples), np.complex64)
+    for n in range(t.size):
+        store.write_frame(n, cube, t[n], pos[n], vel[n], np.zeros(1))
+    run = open_run(tmp_path / "run.zarr")
+    radar = run.radar  # the CPI duration the reader uses
+    got = run.truth_at_cpi_centre("torso")
 
-    c = phase_centre(radar, radar_position, np.zeros(3))
+    c = world_phase_centre(radar, radar_position, np.zeros(3))
+    assert np.allclose(run.phase_centre, c)
     tc = t + radar.cpi_duration / 2
     pc = np.stack([r * np.cos(w * tc), r * np.sin(w * tc), np.ones_like(tc)], -1)
     vc = np.stack([-v * np.sin(w * tc), v * np.cos(w * tc), np.zeros_like(tc)], -1)

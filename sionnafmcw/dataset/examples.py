@@ -58,9 +58,7 @@ class Examples:
     def __init__(self, path, features: str = "range_doppler", labels=("radial_velocity",),
                  frames_per_example: int = 1, frame_stride: int | None = None, items=None,
                  feature_options: dict | None = None):
-        import zarr
-
-        from ..radar import RadarConfig
+        from ..store import open_run
 
         self.path = Path(path)
         self.index = open_index(self.path)
@@ -98,21 +96,19 @@ class Examples:
             ids = [i for i in ids if i in set(wanted)]
         row_of = {str(x): k for k, x in enumerate(self.index.item.values)}
         self.examples: list[Example] = []
-        self._truth: dict = {}
-        radar_dict = None
+        radar = None
         for item in ids:
             store = item_dir(self.path, item) / "run.zarr"
             if not store.exists():
                 continue
-            group = zarr.open_group(str(store), mode="r")
-            done = np.asarray(group["frame_done"][:], dtype=bool)
+            run = open_run(store)
+            done = run.done_mask
             starts = [s for s in range(0, done.size - F + 1, stride) if done[s:s + F].all()]
             if not starts:
                 continue
-            radar = dict(group.attrs)["radar"]
-            if radar_dict is None:
-                radar_dict = radar
-            elif radar != radar_dict:
+            if radar is None:
+                radar = run.radar
+            elif run.radar != radar:
                 raise DatasetError(f"{self.path}: item {item} has another radar than the items before it, so the "
                                    "features differ in shape; select items of one radar with items= (the index's "
                                    "'radar' variable)")
@@ -120,7 +116,7 @@ class Examples:
         if not self.examples:
             raise DatasetError(f"{self.path}: no item has {F} consecutive frames done (frames_per_example={F}); "
                                "generate the data set first, or lower frames_per_example")
-        self.radar = RadarConfig.from_dict(radar_dict)
+        self.radar = radar
         self._row_of_store = {e.store: e.row for e in self.examples}
         self._local = threading.local()
 
@@ -128,54 +124,33 @@ class Examples:
         return len(self.examples)
 
     # ------------------------------------------------------------------ reading
-    def _group(self, store: str):
-        import zarr
+    def _run(self, store: str):
+        """The :class:`~sionnafmcw.store.Run` of ``store``, one per thread."""
+        from ..store import open_run
 
-        cache = getattr(self._local, "groups", None)
+        cache = getattr(self._local, "runs", None)
         if cache is None:
-            cache = self._local.groups = {}
+            cache = self._local.runs = {}
         if store not in cache:
-            cache[store] = zarr.open_group(store, mode="r")
+            cache[store] = open_run(store)
         return cache[store]
-
-    def _label_index(self, store: str) -> int:
-        """Column of the label object in the store's object axis (-1: none)."""
-        row = self._row_of_store[store]
-        obj = str(self.index.label_object.values[row])
-        if not obj:
-            return -1
-        names = [str(x) for x in np.asarray(self._group(store)["object"][:])]
-        return names.index(obj)
 
     def cubes(self, example: Example) -> np.ndarray:
         """``[F, chirp, tx, rx, sample]`` complex64 beat cubes of the example."""
-        g = self._group(example.store)
-        return np.asarray(g["iq"][example.start:example.start + self.frames_per_example])
+        return self._run(example.store).cubes(slice(example.start, example.start + self.frames_per_example))
 
     def frame_labels(self, example: Example) -> dict:
         """``radial_velocity``, ``range`` (float32 ``[F]``) and ``frame_time`` (float64 ``[F]``) from the store."""
-        from ..animation import RadarPose
-        from ..geometry import phase_centre
-
-        g = self._group(example.store)
+        run = self._run(example.store)
         sl = slice(example.start, example.start + self.frames_per_example)
-        out = {"frame_time": np.asarray(g["frame_time"][sl], dtype=np.float64)}
-        key = (example.store, "k")
-        if key not in self._truth:
-            self._truth[key] = self._label_index(example.store)
-            attrs = dict(g.attrs)
-            pose = RadarPose(np.asarray(attrs["radar_pose"]["position"], float),
-                             np.asarray(attrs["radar_pose"]["orientation"], float))
-            self._truth[(example.store, "centre")] = phase_centre(self.radar, pose.position, pose.orientation)
-        k = self._truth[key]
-        if k < 0:
+        out = {"frame_time": run.frame_times[sl]}
+        obj = str(self.index.label_object.values[self._row_of_store[example.store]])
+        if not obj:
             nan = np.full(self.frames_per_example, np.nan, np.float32)
             out.update(radial_velocity=nan, range=nan.copy())
         else:
-            out["radial_velocity"] = np.asarray(g["truth_radial_velocity"][sl, k], dtype=np.float32)
-            pos = np.asarray(g["truth_position"][sl, k, :], dtype=np.float64)
-            centre = self._truth[(example.store, "centre")]
-            out["range"] = np.linalg.norm(pos - centre, axis=-1).astype(np.float32)
+            out["radial_velocity"] = run.truth(obj)[sl].astype(np.float32)
+            out["range"] = run.truth_range(obj)[sl].astype(np.float32)
         return out
 
     def item_label(self, name: str, example: Example):

@@ -6,7 +6,7 @@ Layout of a data set folder ``out``::
     out/index.zarr                 the index (below), rewritten as items finish
     out/items/<id>/scene/          the animation directory (sionnafmcw.scenes.build)
     out/items/<id>/scene.json      written after the scene is complete: {"scenario", "parameters"}
-    out/items/<id>/run.zarr        the run store (NOTES section 3); the item is complete when every
+    out/items/<id>/run.zarr        the run store (sionnafmcw.store); the item is complete when every
                                    frame the spec asks for is marked done in it
     out/items/<id>/item.json       the item's record: parameters, status, error and traceback,
                                    attempts, wall time, worker, labels
@@ -82,14 +82,13 @@ def store_state(store, frames=None) -> dict:
     ``complete``: every frame in ``frames`` (default all) is marked done. Missing or unreadable
     store: not complete.
     """
-    import zarr
+    from ..store import open_run
 
     store = Path(store)
     if not store.exists():
         return {"exists": False, "num_frames": 0, "frame_done": np.zeros(0, bool), "complete": False}
     try:
-        group = zarr.open_group(str(store), mode="r")
-        done = np.asarray(group["frame_done"][:], dtype=bool)
+        done = open_run(store).done_mask
     except Exception:
         return {"exists": True, "num_frames": 0, "frame_done": np.zeros(0, bool), "complete": False}
     wanted = range(done.size) if frames is None else [f for f in frames]
@@ -116,30 +115,16 @@ def store_labels(store, label_object: str | None = None) -> dict:
     Returns ``{"label_object", "objects", "num_frames", "frame_done", "frame_time",
     "radial_velocity", "range"}``.
     """
-    import zarr
+    from ..store import open_run
 
-    from ..animation import RadarPose
-    from ..geometry import phase_centre
-    from ..radar import RadarConfig
-
-    group = zarr.open_group(str(store), mode="r")
-    done = np.asarray(group["frame_done"][:], dtype=bool)
-    objects = [str(x) for x in np.asarray(group["object"][:])] if group["object"].shape[0] else []
-    obj = choose_label_object(objects, label_object)
-    times = np.where(done, np.asarray(group["frame_time"][:], dtype=float), np.nan)
+    run = open_run(store)
+    done = run.done_mask
     n = done.size
-    radial = np.full(n, np.nan)
-    ranges = np.full(n, np.nan)
-    if obj:
-        k = objects.index(obj)
-        radial = np.where(done, np.asarray(group["truth_radial_velocity"][:, k], dtype=float), np.nan)
-        attrs = dict(group.attrs)
-        radar = RadarConfig.from_dict(attrs["radar"])
-        pose = RadarPose(np.asarray(attrs["radar_pose"]["position"], float),
-                         np.asarray(attrs["radar_pose"]["orientation"], float))
-        centre = phase_centre(radar, pose.position, pose.orientation)
-        pos = np.asarray(group["truth_position"][:, k, :], dtype=float)
-        ranges = np.where(done, np.linalg.norm(pos - centre, axis=-1), np.nan)
+    objects = run.objects
+    obj = choose_label_object(objects, label_object)
+    times = run.frame_times
+    radial = run.truth(obj) if obj else np.full(n, np.nan)  # NaN for frames not done
+    ranges = run.truth_range(obj) if obj else np.full(n, np.nan)
     return {"label_object": obj, "objects": objects, "num_frames": int(n), "frame_done": done.tolist(),
             "frame_time": times.tolist(), "radial_velocity": radial.tolist(), "range": ranges.tolist()}
 

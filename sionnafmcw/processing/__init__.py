@@ -1,7 +1,7 @@
 r"""Radar signal processing of TDM-MIMO FMCW beat cubes.
 
 Input: one CPI ``[chirp, tx, rx, sample]`` (complex, Tx in physical order), or frames of them
-``[frame, chirp, tx, rx, sample]``. Conventions (NOTES section 2): range bins of the unshifted
+``[frame, chirp, tx, rx, sample]``. Conventions (:mod:`sionnafmcw.store`): range bins of the unshifted
 range FFT span :math:`[0, R_{max})`; Doppler spectra are ``fftshift``-ed and every velocity is the
 radial velocity :math:`v_r` (m/s, positive receding) on the sweep-centre wavelength
 :math:`\lambda_{mid}`; angles are radians, azimuth positive towards +y, elevation towards +z.

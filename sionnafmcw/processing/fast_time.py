@@ -1,6 +1,6 @@
 r"""Fast-time processing: range FFT and the range axis.
 
-For a point target the beat signal along fast time :math:`k` (NOTES section 2) is a complex
+For a point target the beat signal along fast time :math:`k` (:mod:`sionnafmcw.synthesis`) is a complex
 tone at :math:`f_b = \mu\tau > 0`, sampled at :math:`F_s`. The forward FFT (no shift)
 
 .. math::

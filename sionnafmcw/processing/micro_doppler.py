@@ -4,7 +4,7 @@ Both take a sequence of CPIs (one per frame), frames axis first: an array
 ``[frame, chirp, tx, rx, sample]`` (NumPy, Zarr or xarray: frames are read one at a time) or any
 iterable of ``[chirp, tx, rx, sample]`` cubes.
 
-Doppler track (the paper's estimator, NOTES section 5): per CPI the range-Doppler map after
+Doppler track (the reference paper's estimator, :mod:`sionnafmcw.validation.circle_walk`): per CPI the range-Doppler map after
 static clutter removal (:func:`range_doppler_map`), optionally restricted to a range gate; the
 velocity (and range) of its strongest cell, refined by log-parabolic interpolation
 (:func:`interpolate_peak`, circular along Doppler).

@@ -3,7 +3,7 @@ r"""Slow-time processing: Doppler FFT and the radial-velocity axis.
 The TDM block interval :math:`T_b = M T_c` is the slow-time sampling interval of every channel.
 A target with range rate :math:`v_r` (positive receding) rotates the phase of chirp :math:`l` by
 :math:`-2\pi f_D' l T_b` with :math:`f_D' = -2 v_r/\lambda_{mid}` (sweep-centre wavelength,
-NOTES section 2), i.e. a slow-time tone at :math:`f = 2v_r/\lambda_{mid}`. After the forward FFT
+:mod:`sionnafmcw.radar`), i.e. a slow-time tone at :math:`f = 2v_r/\lambda_{mid}`. After the forward FFT
 of size :math:`L` and ``fftshift``, bin :math:`i` holds
 
 .. math::

@@ -1,6 +1,6 @@
 r"""The paper's experiment: a person walking a 3 m circle, Doppler-time against ground truth.
 
-Scenario (NOTES section 5, scene ``circle_walk``): one lap of a radius-3 m circle in 100 frames at
+Scenario (scene ``circle_walk`` of :mod:`sionnafmcw.scenes`): one lap of a radius-3 m circle in 100 frames at
 24 fps, :math:`2\pi\cdot 3/(100/24) = 4.52` m/s along the track, radar outside the circle. For
 every frame one CPI is simulated (``walk-77ghz`` preset by default) with the path engine, the
 pixel engine, or both, and processed as in the paper:
@@ -16,7 +16,7 @@ The engines evaluate the scene at :math:`t_n` and hold every path's Doppler over
 order in time: constant velocity within the CPI), so the frame-time truth is what the simulated
 signal carries. A real torso accelerates during the 27 ms CPI (centripetal :math:`v^2/r` = 6.8
 m/s^2 on the circle), so the metrics also give ``e_velo_cpi_centre`` against the truth at the CPI
-centre (:func:`~sionnafmcw.validation.common.truth_at_cpi_centre`): the difference between the
+centre (:meth:`sionnafmcw.store.Run.truth_at_cpi_centre`): the difference between the
 two is the acceleration the simulator leaves out, not an estimation error.
 
 Targets (issue 5): :math:`e_{velo} \le 0.15` m/s for the path engine, :math:`\le 0.3` m/s for the
@@ -42,7 +42,7 @@ import numpy as np
 
 from .. import plots, processing
 from ..radar import RadarConfig
-from .common import build_scene, phase_centre_of, run_engine, truth_at_cpi_centre, write_metrics
+from .common import build_scene, run_engine, write_metrics
 
 #: e_velo targets (m/s) of issue 5
 TARGETS = {"path": 0.15, "pixel": 0.30}
@@ -55,17 +55,20 @@ TRUTH_OBJECT = "torso"
 PATH_DEFAULTS = {"samples_per_src": 1_000_000, "max_depth": 1}
 
 
-def analyse(ds, radar, obj: str = TRUTH_OBJECT) -> dict:
-    """Doppler track, truth at the CPI centres, spectrogram and error figures of a run store."""
-    track = processing.doppler_time(ds["iq"], radar, clutter_removal=True)
-    names = [str(n) for n in ds["object"].values]
-    truth = np.asarray(ds["truth_radial_velocity"].values[:, names.index(obj)], float)
-    truth_centre = truth_at_cpi_centre(ds, radar, obj)
+def analyse(run, obj: str = TRUTH_OBJECT, frames=None) -> dict:
+    """Doppler track, truth at the CPI centres, spectrogram and error figures of a :class:`~sionnafmcw.store.Run`
+    (its ``frames``, by default every frame done)."""
+    radar = run.radar
+    frames = run.done_frames if frames is None else np.asarray(frames, dtype=int)
+    iq = run["iq"].isel(frame=frames)
+    track = processing.doppler_time(iq, radar, clutter_removal=True)
+    truth = run.truth(obj)[frames]
+    truth_centre = run.truth_at_cpi_centre(obj)[frames]
     err = track.velocities - truth
-    times = np.asarray(ds["frame_time"].values, float)
-    spectrogram = processing.micro_doppler_spectrogram(ds["iq"], radar, times)
+    times = run.frame_times[frames]
+    spectrogram = processing.micro_doppler_spectrogram(iq, radar, times)
     bin_v = radar.velocity_resolution
-    pos = np.asarray(ds["truth_position"].values[:, names.index(obj), :], float)
+    pos = run.truth_position(obj)[frames]
     return {
         "track": track, "truth": truth, "times": times, "spectrogram": spectrogram, "truth_position": pos,
         "e_velo": float(np.mean(np.abs(err))),
@@ -79,15 +82,15 @@ def analyse(ds, radar, obj: str = TRUTH_OBJECT) -> dict:
     }
 
 
-def _plots(out: Path, engine: str, result: dict, ds, radar, frame: int) -> list[str]:
+def _plots(out: Path, engine: str, result: dict, run, frame: int) -> list[str]:
     files = []
     spec = result["spectrogram"]
     ax = plots.plot_doppler_time(result["times"], result["track"].velocities, truth_times=result["times"],
                                  truth_velocities=result["truth"], spectrogram=spec,
                                  title=f"Doppler-time, {engine} engine: e_velo = {result['e_velo']:.3f} m/s")
     files.append(plots.save(ax, out / f"doppler_time_{engine}.png"))
-    rdmap = processing.range_doppler_map(np.asarray(ds["iq"][frame]), radar, clutter_removal=True)
-    centre_range = float(np.linalg.norm(result["truth_position"][frame] - phase_centre_of(ds, radar)))
+    rdmap = processing.range_doppler_map(run.cube(frame), run.radar, clutter_removal=True)
+    centre_range = float(np.linalg.norm(result["truth_position"][frame] - run.phase_centre))
     ax = plots.plot_range_doppler(rdmap, truth=[(centre_range, result["truth"][frame])],
                                   title=f"Range-Doppler, frame {frame}, {engine} engine (clutter removed)")
     files.append(plots.save(ax, out / f"range_doppler_{engine}.png"))
@@ -115,8 +118,7 @@ def main(argv=None) -> int:
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    radar = (RadarConfig.preset(args.radar) if args.radar in RadarConfig.presets()
-             else RadarConfig.from_json(Path(args.radar).read_text()))
+    radar = RadarConfig.resolve(args.radar)
     scene_dir = Path(args.scene) if args.scene else build_scene("circle_walk", out / "scene")
     animation = load_animation(scene_dir)
     n = animation.num_frames if args.frames is None else min(int(args.frames), animation.num_frames)
@@ -132,17 +134,16 @@ def main(argv=None) -> int:
                "targets_m_per_s": {e: TARGETS[e] for e in engines}, "engines": {}, "figures": []}
     for engine in engines:
         t0 = time.perf_counter()
-        ds, seconds = run_engine(animation, radar, engine, out / f"run_{engine}.zarr", options[engine],
-                                 frames=frames, seed=args.seed, noise=not args.no_noise,
-                                 progress=not args.quiet)
-        ds = ds.isel(frame=slice(0, n))
-        result = analyse(ds, radar)
-        figs = _plots(out, engine, result, ds, radar, frame=min(n - 1, n // 4))
+        run, seconds = run_engine(animation, radar, engine, out / f"run_{engine}.zarr", options[engine],
+                                  frames=frames, seed=args.seed, noise=not args.no_noise,
+                                  progress=not args.quiet)
+        result = analyse(run, frames=frames)
+        figs = _plots(out, engine, result, run, frame=min(n - 1, n // 4))
         metrics["figures"] += figs
         metrics["engines"][engine] = {
             k: result[k] for k in ("e_velo", "e_velo_cpi_centre", "median_abs_error", "max_abs_error", "bias",
                                    "fraction_within_one_bin", "velocity_bin", "num_cpis")
-        } | {"seconds_per_frame": seconds / n, "engine_settings": ds.attrs.get("engine"),
+        } | {"seconds_per_frame": seconds / n, "engine_settings": run.engine,
              "passed": result["e_velo"] <= TARGETS[engine], "analysis_seconds": time.perf_counter() - t0 - seconds}
     top_view = getattr(plots, "plot_scene_top_view", None)
     if top_view is not None:

@@ -67,7 +67,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import plots, processing
+from .. import engines, plots, processing
+from ..array import uniform_azimuth_row
+from ..engines import Engine
 from ..radar import RadarConfig
 from .common import build_scene, run_engine, write_metrics
 
@@ -128,12 +130,19 @@ def expected_range_profile(echoes, radar, moving_only: bool = True) -> np.ndarra
     return profile
 
 
-class _PowerRecorder:
-    r"""Forwards ``echoes`` to an engine and records, per frame, the received power
-    :math:`\sum|a|^2` and the speckle-free range profile (:func:`expected_range_profile`)."""
+class _PowerRecorder(Engine):
+    r"""An engine that forwards :meth:`echoes` to another one and records, per frame, the received
+    power :math:`\sum|a|^2` and the speckle-free range profile (:func:`expected_range_profile`).
 
-    def __init__(self, engine, moving_only: bool = True):
+    It replaces the whole template method (the wrapped engine runs its own), so the per-frame
+    hooks are never called; :meth:`settings` are the wrapped engine's, so the run store records
+    the engine that made the echoes.
+    """
+
+    def __init__(self, engine: Engine, moving_only: bool = True):
+        super().__init__(track_kernels=False)
         self.engine = engine
+        self.name = engine.name
         self.moving_only = moving_only
         self.power = {}
         self.profile = {}
@@ -152,45 +161,58 @@ class _PowerRecorder:
     def settings(self) -> dict:
         return self.engine.settings()
 
+    def close(self) -> None:
+        self.engine.close()
+
+    def _settings(self) -> dict:
+        return self.engine.settings()
+
+    def _load(self, scene, animation, radar):
+        raise NotImplementedError("_PowerRecorder forwards echoes() to its engine")
+
+    def _frame_echoes(self, animation, radar, frame, pose):
+        raise NotImplementedError("_PowerRecorder forwards echoes() to its engine")
+
 
 def _half_power_beamwidth_deg(radar) -> float:
     r"""Broadside half-power beamwidth of the uniform virtual row, :math:`0.886\lambda/(N_v d)` (rad -> deg)."""
-    elements, d = processing.uniform_azimuth_row(radar)
+    elements, d = uniform_azimuth_row(radar)
     return float(np.rad2deg(0.886 * radar.centre_wavelength / (len(elements) * d)))
 
 
-def _gated_tracks(ds_path, ds_pixel, radar, objects, gate: float, clutter_removal: bool) -> dict:
+def _gated_tracks(run_path, run_pixel, frames, objects, gate: float, clutter_removal: bool) -> dict:
     """Strongest-cell velocity ``[frame, object]`` inside a range gate of +-``gate`` m around each object."""
-    from .common import phase_centre_of
-
-    names = [str(n) for n in ds_path["object"].values]
-    objects = [o for o in (objects or names) if o in names]
-    centre = phase_centre_of(ds_path, radar)
-    rng = np.linalg.norm(np.asarray(ds_path["truth_position"].values, float) - centre, axis=-1)  # [frame, object]
+    radar = run_path.radar
+    objects = [o for o in (objects or run_path.objects) if o in run_path.objects]
+    rng = {o: run_path.truth_range(o) for o in objects}  # [frame] from the phase centre
     out = {}
-    for k, ds in (("path", ds_path), ("pixel", ds_pixel)):
-        v = np.zeros((ds.sizes["frame"], len(objects)))
-        for f in range(ds.sizes["frame"]):
-            cube = np.asarray(ds["iq"][f])
+    for k, run in (("path", run_path), ("pixel", run_pixel)):
+        v = np.zeros((len(frames), len(objects)))
+        for i, f in enumerate(frames):
+            cube = run.cube(f)
             for j, o in enumerate(objects):
-                r = rng[f, names.index(o)]
+                r = rng[o][f]
                 track = processing.doppler_time([cube], radar, clutter_removal=clutter_removal,
                                                 range_gate=(r - gate, r + gate))
-                v[f, j] = track.velocities[0]
+                v[i, j] = track.velocities[0]
         out[k] = v
     out["objects"] = objects
     return out
 
 
-def compare(ds_path, ds_pixel, radar, clutter_removal: bool = True, objects=None, gate: float = 0.5) -> dict:
-    """The metrics of the module docstring for two run stores of the same scene and frames."""
-    n = ds_path.sizes["frame"]
+def compare(run_path, run_pixel, clutter_removal: bool = True, objects=None, gate: float = 0.5,
+            frames=None) -> dict:
+    """The metrics of the module docstring for two :class:`~sionnafmcw.store.Run` of the same scene and
+    radar, on ``frames`` (default: every frame done in the path run)."""
+    radar = run_path.radar
+    frames = [int(f) for f in (run_path.done_frames if frames is None else frames)]
+    n = len(frames)
     profiles = {"path": 0.0, "pixel": 0.0}
     energy = {"path": 0.0, "pixel": 0.0}
     rd_corr, angle_diff, maps = [], [], {}
     az_grid = np.deg2rad(np.arange(-90.0, 90.0001, 0.25))
-    for f in range(n):
-        cubes = {"path": np.asarray(ds_path["iq"][f]), "pixel": np.asarray(ds_pixel["iq"][f])}
+    for i, f in enumerate(frames):
+        cubes = {"path": run_path.cube(f), "pixel": run_pixel.cube(f)}
         rd = {k: processing.range_doppler(c, radar, clutter_removal=clutter_removal) for k, c in cubes.items()}
         power = {k: np.sum(np.abs(v) ** 2, axis=(1, 2)) for k, v in rd.items()}
         for k in power:
@@ -206,11 +228,11 @@ def compare(ds_path, ds_pixel, radar, clutter_removal: bool = True, objects=None
             az_peak[k] = float(az_grid[np.argmax(spec)])
             maps.setdefault(k, []).append(spec)
         angle_diff.append(abs(az_peak["pixel"] - az_peak["path"]))
-        if f == n // 2:
+        if i == n // 2:
             maps["rd"] = {k: processing.RangeDopplerMap(power[k], processing.range_axis(radar, power[k].shape[1]),
                                                         velocities) for k in power}
-            maps["angle_frame"] = f
-    tracks = _gated_tracks(ds_path, ds_pixel, radar, objects, gate, clutter_removal)
+            maps["angle_frame"], maps["angle_index"] = f, i
+    tracks = _gated_tracks(run_path, run_pixel, frames, objects, gate, clutter_removal)
     dv = np.abs(tracks["pixel"] - tracks["path"]).ravel()
     ranges = processing.range_axis(radar, radar.num_samples)
     return {
@@ -269,7 +291,7 @@ def _plots(out: Path, scene: str, m: dict, times) -> list[str]:
                           f"{scene}: Doppler-time, {100 * m['doppler_time_within_one_bin']:.0f} % of CPIs within one bin",
                           marker="."))
     f = m["_maps"]["angle_frame"]
-    spectra = {k: np.asarray(m["_maps"][k][f], float) for k in engines}
+    spectra = {k: np.asarray(m["_maps"][k][m["_maps"]["angle_index"]], float) for k in engines}
     files.append(_overlay(out / f"{scene}_angle.png",
                           {k: [(np.rad2deg(m["_az_grid"]), _db(v / v.max(), 1e-12))] for k, v in spectra.items()},
                           "azimuth (deg)", "Bartlett power (dB, normalised)",
@@ -305,12 +327,10 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
 
     from ..animation import load_animation
-    from ..simulation import make_engine
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    radar = (RadarConfig.preset(args.radar) if args.radar in RadarConfig.presets()
-             else RadarConfig.from_json(Path(args.radar).read_text()))
+    radar = RadarConfig.resolve(args.radar)
     metrics = {"experiment": "pixel_vs_path", "radar": radar.name, "targets": TARGETS, "scenes": {}, "figures": [],
                "path_specular": not args.no_path_specular}
     for scene in args.scenes:
@@ -328,17 +348,16 @@ def main(argv=None) -> int:
                         "max_num_paths_per_src": buffer, "specular": not args.no_path_specular}
         for engine, options in (("path", path_options),
                                 ("pixel", {"n_az": args.n_az, "n_el": args.n_el, "array_model": args.array_model})):
-            recorder = _PowerRecorder(make_engine(engine, **options))
-            ds, sec = run_engine(animation, radar, recorder, out / "runs" / f"{scene}_{engine}.zarr",
-                                 frames=frames, noise=False, progress=not args.quiet)
-            runs[engine] = ds.isel(frame=slice(0, n))
+            recorder = _PowerRecorder(engines.create(engine, **options))
+            runs[engine], sec = run_engine(animation, radar, recorder, out / "runs" / f"{scene}_{engine}.zarr",
+                                           frames=frames, noise=False, progress=not args.quiet)
             seconds[engine] = sec / n
             received[engine] = sum(recorder.power.values())
             by_object[engine] = recorder.by_object
             expected[engine] = sum(recorder.profile.values())
         objects, gate = TRACKED[scene]
-        m = compare(runs["path"], runs["pixel"], radar, clutter_removal=True, objects=objects, gate=gate)
-        times = np.asarray(runs["path"]["frame_time"].values, float)
+        m = compare(runs["path"], runs["pixel"], clutter_removal=True, objects=objects, gate=gate, frames=frames)
+        times = runs["path"].frame_times[frames]
         metrics["figures"] += _plots(out, scene, m, times)
         public = {k: v for k, v in m.items() if not k.startswith("_")}
         public["power_difference_db"] = float(10 * np.log10(received["pixel"] / received["path"]))

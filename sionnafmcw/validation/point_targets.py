@@ -53,7 +53,7 @@ def analyse(radar, targets, seed=0):
 
     channels = radar.num_tx * radar.num_rx
     noise = np.median(rdmap.power) * channels / gamma(channels).median()
-    centre = processing.array_phase_centre(radar)
+    centre = radar.phase_centre
     t_centre = 0.5 * radar.cpi_duration
     rows = []
     for r, v, az, sigma in zip(ranges, speeds, azimuths, rcs):
