@@ -8,7 +8,7 @@ import pytest
 from animation_helpers import METAL, box_mesh, plate_mesh, write_moving_mesh_animation, write_plate_animation
 from sionnafmcw.animation import load_animation
 from sionnafmcw.constants import SPEED_OF_LIGHT
-from sionnafmcw.engines import PathEngine, PathEngineError
+from sionnafmcw.engines import EngineError, PathEngine, PathEngineError, SceneGeometryError
 from sionnafmcw.materials import (
     MaterialFrequencyError,
     SKIN_DRY,
@@ -97,7 +97,7 @@ def test_radar_pose_orientation_and_override(tmp_path):
 def test_missing_radar_pose_is_an_error(tmp_path):
     root = write_plate_animation(tmp_path / "p", radar_pose=None, num_frames=1)
     anim = load_animation(root)
-    with pytest.raises(PathEngineError, match="no 'radar' pose"):
+    with pytest.raises(EngineError, match="no 'radar' pose"):
         PathEngine(samples_per_src=1000).echoes(anim, RADAR, 0)
     echoes = PathEngine(samples_per_src=1000).echoes(anim, RADAR, 0, radar_pose=([0, 0, 0], [0, 0, 0]))
     assert echoes.shape == (3, 4, 1)
@@ -295,7 +295,7 @@ def test_frames_must_keep_shapes_and_topology(tmp_path):
     anim = load_animation(root)
     engine = PathEngine(samples_per_src=1000)
     engine.echoes(anim, RADAR, 0)
-    with pytest.raises(PathEngineError, match=r"0001\.xml: frame 1 has a different set of shapes .*missing: \['floor'\]"):
+    with pytest.raises(SceneGeometryError, match=r"0001\.xml: frame 1 has a different set of shapes .*missing: \['floor'\]"):
         engine.echoes(anim, RADAR, 1)
 
     def growing(t):
@@ -304,7 +304,7 @@ def test_frames_must_keep_shapes_and_topology(tmp_path):
     anim = load_animation(write_moving_mesh_animation(tmp_path / "g", growing, (0, 0, 0), num_frames=2))
     engine = PathEngine(samples_per_src=1000)
     engine.echoes(anim, RADAR, 0)
-    with pytest.raises(PathEngineError, match=r"plate_0001\.ply: mesh 'plate' has 9 vertices in frame 1 but 4"):
+    with pytest.raises(SceneGeometryError, match=r"plate_0001\.ply: mesh 'plate' has 9 vertices in frame 1 but 4"):
         engine.echoes(anim, RADAR, 1)
 
 

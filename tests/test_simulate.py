@@ -68,7 +68,7 @@ def test_moving_plate_range_and_velocity(tmp_path, radar, speed):
     ds = simulate(root, radar, engine=fast_engine(), out=tmp_path / "run.zarr", progress=False)
     track = processing.doppler_time(ds.iq.values, radar)
     truth_v = ds.truth_radial_velocity.values[:, 0]
-    truth_r = ds.truth_position.values[:, 0, 0]  # plate face, on boresight
+    truth_r = ds["truth_position"].values[:, 0, 0]  # plate face, on boresight
     assert np.all(np.sign(track.velocities) == np.sign(speed))
     assert np.all(np.abs(track.velocities - truth_v) < radar.velocity_resolution / 2)
     assert np.all(np.abs(track.ranges - truth_r) < radar.range_resolution / 2)
@@ -163,7 +163,7 @@ def test_store_layout_resume_and_determinism(tmp_path, radar):
     assert len(engine.stats) - traced == 2  # frames 2 and 3 only: 0 and 1 were done
     assert ds.frame_done.values.all()
     assert ds.iq.dims == ("frame", "chirp", "tx", "rx", "sample")
-    assert ds.truth_position.dims == ("frame", "object", "xyz")
+    assert ds["truth_position"].dims == ("frame", "object", "xyz")
     assert list(ds.object.values) == ["plate"]
     assert ds.attrs["radar"] == radar.to_dict() and ds.attrs["seed"] == 3
     assert RadarConfig.from_dict(ds.attrs["radar"]) == radar
