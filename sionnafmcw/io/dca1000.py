@@ -199,7 +199,7 @@ def _truth_json(truth: dict | None) -> dict | None:
 
 
 def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000", board=None,
-                  family: str | None = None, scale: AdcScale | None = None, frame_times=None, truth=None,
+                  family: str | None = None, scale: AdcScale | float | None = None, frame_times=None, truth=None,
                   frame_period: float | None = None, replace: bool = False, extra: dict | None = None) -> CaptureReport:
     """Write a capture directory atomically from an iterable of cubes ``[chirp, tx, rx, sample]``.
 
@@ -212,7 +212,8 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
     board : TI board (name or :class:`~sionnafmcw.io.ti_cfg.Board`); default from the radar's preset name.
         Needed for ``dca1000`` (the lane order, the ``.cfg``); for ``npz`` without a board no ``.cfg`` is written.
     family : LVDS family overriding the board's
-    scale : :class:`AdcScale` (default: 30 dB gain, 0 dBm full scale)
+    scale : :class:`AdcScale` (default: 30 dB gain, 0 dBm full scale), or a number: counts per sqrt(W)
+        (1.0 re-writes a cube that already holds counts, e.g. from :func:`read_dca1000`)
     frame_times : ``[frame]`` CPI start times (s) for the sidecar
     truth : dict of ground-truth arrays for the sidecar (``objects``, ``position``, ``velocity``, ``radial_velocity``)
     frame_period : ``framePeriodicity`` of the ``.cfg`` (s); default from ``frame_times``, else 100 ms
@@ -222,7 +223,8 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
 
     if format not in ("dca1000", "npz"):
         raise CaptureError(f"unknown capture format {format!r}; choose 'dca1000' or 'npz'")
-    scale = scale or AdcScale()
+    scale = AdcScale() if scale is None else scale
+    scale_info = scale.to_dict() if isinstance(scale, AdcScale) else {"counts_per_sqrt_watt": float(scale)}
     if board is not None or format == "dca1000":
         board = board_for_radar(radar, board)
     fam = family_of(board, family) if (board is not None or family is not None) else None
@@ -240,7 +242,7 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
         cfg_text = None
         if board is not None:
             cfg_text = write_ti_cfg(radar, board, frame_period=max(frame_period, radar.cpi_duration),
-                                    rx_gain_db=scale.rx_gain_db)
+                                    rx_gain_db=scale_info.get("rx_gain_db", 30.0))
             (tmp / CFG_NAME).write_text(cfg_text)
         collected = []
         sink = open(tmp / BIN_NAME, "wb") if format == "dca1000" else None
@@ -280,7 +282,7 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
             "bytes_per_frame": frame_bytes(radar),
             "sample_format": "int16 little-endian two's complement, I/Q word order of the family (TI SWRA581)",
             "tx_order": list(radar.tx_order),
-            "scale": scale.to_dict(),
+            "scale": scale_info,
             "clipping": report.to_dict(),
             "frame_period": frame_period,
             "frame_time": None if frame_times is None else np.asarray(frame_times, dtype=float).tolist(),
@@ -384,7 +386,7 @@ def read_npz(path) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------------------------- runs
-def export_run(run_path, out_dir, format: str = "dca1000", board=None, scale: AdcScale | None = None,
+def export_run(run_path, out_dir, format: str = "dca1000", board=None, scale: AdcScale | float | None = None,
                frames=None, replace: bool = False, family: str | None = None) -> CaptureReport:
     """Export a run store (:func:`sionnafmcw.store.open_run`) as a capture directory.
 
