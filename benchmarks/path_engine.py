@@ -95,8 +95,7 @@ def write_room_person(root: Path, num_frames: int, fps=24.0, speed=1.2):
 
 def bare_sionna(animation, radar, engine, frames, samples):
     """The same scene object, traced with Sionna's own PathSolver call per frame."""
-    import mitsuba as mi
-    from sionna.rt import PathSolver
+    from sionnafmcw.sionna_rt import PathSolver, mi
 
     scene = engine.scene
     params = mi.traverse(scene.mi_scene)

@@ -35,12 +35,10 @@ def main(argv=None) -> int:
     parser.add_argument("--array-model", choices=("plane-wave", "exact"), default="plane-wave")
     args = parser.parse_args(argv)
 
-    import drjit as dr
-    import mitsuba as mi
-
     from sionnafmcw import PixelEngine, RadarConfig, load_animation, scenes, synthesize
+    from sionnafmcw.array import phase_centre
     from sionnafmcw.geometry import rotation_matrix
-    from sionnafmcw.processing import array_phase_centre
+    from sionnafmcw.sionna_rt import dr, mi
 
     radar = RadarConfig.preset("walk-77ghz")
     with tempfile.TemporaryDirectory() as tmp:
@@ -49,7 +47,7 @@ def main(argv=None) -> int:
         engine = PixelEngine(n_az=args.n_az, n_el=args.n_el, array_model=args.array_model)
         pose = animation.radar_pose
         rot = rotation_matrix(pose.orientation)
-        origin = pose.position + rot @ array_phase_centre(radar)
+        origin = pose.position + rot @ phase_centre(radar)
         directions = engine._directions @ rot.T
         o = mi.Point3f(*[mi.Float(np.full(len(directions), origin[i], dtype=np.float32)) for i in range(3)])
         d = mi.Vector3f(*[mi.Float(np.ascontiguousarray(directions[:, i], dtype=np.float32)) for i in range(3)])
