@@ -132,13 +132,28 @@ def test_presets_json_and_config(capsys, tmp_path):
     assert status == 0
     path = tmp_path / "r.json"
     path.write_text(out)
-    assert cli._load_radar(str(path)) == RadarConfig.preset("ti-iwr6843isk")
+    assert cli.common.load_radar(str(path)) == RadarConfig.preset("ti-iwr6843isk")
+
+
+def test_presets_from_ti_cfg(capsys, tmp_path):
+    """A TI mmWave .cfg shows the figures of the radar it describes (a preset's .cfg: that preset's)."""
+    from sionnafmcw.io.ti_cfg import write_ti_cfg
+
+    radar = RadarConfig.preset("ti-iwr6843isk")
+    path = tmp_path / "profile.cfg"
+    path.write_text(write_ti_cfg(radar))
+    status, out, _ = run_cli(capsys, "presets", "--from-cfg", path, "--json")
+    assert status == 0
+    (row,) = json.loads(out)
+    assert RadarConfig.from_dict(row["config"]).derived() == radar.derived()
+    status, _, err = run_cli(capsys, "presets", "--from-cfg", tmp_path / "none.cfg")
+    assert_user_error(status, err, "--from-cfg", "none.cfg")
 
 
 def test_radar_file_with_preset_and_changes(tmp_path):
     path = tmp_path / "r.json"
     path.write_text(json.dumps({"preset": "walk-77ghz", "num_chirps": 64, "noise_figure": 10.0}))
-    radar = cli._load_radar(str(path))
+    radar = cli.common.load_radar(str(path))
     assert radar == RadarConfig.preset("walk-77ghz").replace(num_chirps=64, noise_figure=10.0, name="walk-77ghz*")
 
 
@@ -180,7 +195,8 @@ def test_user_errors_are_one_line(capsys, tmp_path, plate_scene, small_radar_fil
         (["simulate", str(tmp_path / "nowhere"), "--radar", "walk-77ghz", "--out", out], "no such directory"),
         (["simulate", str(tmp_path), "--radar", "walk-77ghz", "--out", out], "no animation.json"),
         (["simulate", scene, "--radar", "nope", "--out", out], "neither a preset"),
-        (["simulate", scene, "--radar", str(tmp_path / "missing.json"), "--out", out], "missing.json: no such file"),
+        (["simulate", scene, "--radar", str(tmp_path / "missing.json"), "--out", out],
+         "missing.json: no such radar file"),
         (["simulate", scene, "--radar", bad_json, "--out", out], "bad.json: invalid JSON at line 1"),
         (["simulate", scene, "--radar", unknown_field, "--out", out], "unknown RadarConfig field(s) chirps"),
         (["simulate", scene, "--radar", long_cpi, "--out", out], "longer than the frame period"),
@@ -233,24 +249,24 @@ def test_interrupt_and_internal_errors(capsys, monkeypatch):
     def interrupted(args):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(cli, "cmd_presets", interrupted)
+    monkeypatch.setattr(cli.presets, "run", interrupted)
     status, _, err = run_cli(capsys, "presets")
     assert status == cli.EXIT_INTERRUPTED and "interrupted" in err and "Traceback" not in err
 
     def broken(args):
         raise RuntimeError("a bug")
 
-    monkeypatch.setattr(cli, "cmd_presets", broken)
+    monkeypatch.setattr(cli.presets, "run", broken)
     with pytest.raises(RuntimeError, match="a bug"):  # internal errors are not dressed up as user errors
         main(["presets"])
 
 
 def test_engine_options_are_typed_from_the_engine():
-    options = cli._engine_options("path", ["samples_per_src=2e4", "diffuse=false", "max_depth=3", "label=first"])
+    options = cli.simulate.engine_options("path", ["samples_per_src=2e4", "diffuse=false", "max_depth=3", "label=first"])
     assert options == {"samples_per_src": 20000, "diffuse": False, "max_depth": 3, "label": "first"}
     assert type(options["samples_per_src"]) is int and type(options["diffuse"]) is bool
     with pytest.raises(UserError, match="not a boolean"):
-        cli._engine_options("path", ["diffuse=maybe"])
+        cli.simulate.engine_options("path", ["diffuse=maybe"])
 
 
 # ============================================================================ validate, scene list

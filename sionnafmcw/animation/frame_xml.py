@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AnimationError
+from .errors import AnimationError, read_text
 
 def _floats(text: str, n: int | None, where: str) -> np.ndarray:
     try:
@@ -140,10 +140,7 @@ def parse_frame_xml(xml_path) -> ParsedFrameXml:
     from ..materials import MaterialError, classify_bsdf
 
     xml_path = Path(xml_path)
-    try:
-        text = xml_path.read_text()
-    except OSError as err:
-        raise AnimationError(f"{xml_path}: cannot read frame XML ({err.strerror or err})") from None
+    text = read_text(xml_path, "frame XML")
     try:
         root = ET.fromstring(text)
     except ET.ParseError as err:

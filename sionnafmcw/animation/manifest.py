@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import AnimationError
+from .errors import AnimationError, read_text
 from .model import Animation, Frame, RadarPose
 from .ply import read_ply_cached
 
@@ -46,10 +46,7 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
     path = Path(path)
     manifest_path = path / "animation.json" if path.is_dir() else path
     root = manifest_path.parent
-    try:
-        text = manifest_path.read_text()
-    except OSError as err:
-        raise AnimationError(f"{manifest_path}: cannot read the animation manifest ({err.strerror or err})") from None
+    text = read_text(manifest_path, "the animation manifest")
     try:
         manifest = json.loads(text)
     except json.JSONDecodeError as err:

@@ -1,0 +1,88 @@
+"""The ``sionnafmcw`` command line (entry point :func:`main`), one module per subcommand.
+
+::
+
+    sionnafmcw presets [NAME] [--json | --config] [--from-cfg FILE.cfg]   radar presets and their derived figures
+    sionnafmcw scene list [NAME]                                 scenarios and their parameters
+    sionnafmcw scene build NAME OUT [--param k=v ...]            write an animation directory
+    sionnafmcw simulate SCENE --radar PRESET|FILE --out RUN.zarr [--engine NAME] ...
+    sionnafmcw plot RUN --out DIR [--kind rd|ra|doppler-time|micro-doppler|scene ...] [--frame N]
+    sionnafmcw validate NAME [ARGS ...]                          a validation experiment
+    sionnafmcw dataset SPEC --out DIR [--scheduler ADDRESS | --workers N]
+
+Modules: :mod:`.presets`, :mod:`.scene`, :mod:`.simulate`, :mod:`.plot` (figure kinds as a
+table), :mod:`.validate`, :mod:`.dataset`; :mod:`.common` holds the shared parsers and loaders.
+Each has ``add_parser(add)`` and the function(s) it runs.
+
+Global options: ``--quiet`` (no progress bars), ``--version``. A user error (a missing file, an
+unknown preset, scene or parameter, bad ``--frames``, bad JSON, a CPI longer than the frame
+period, ...) prints one line ``sionnafmcw: error: ...`` on stderr and exits with status 2; an
+interrupted run exits with 130 (``simulate`` then resumes where it stopped). The library's errors
+speak the library's language; the command line adds which option to change or which command to
+run. Heavy modules (Sionna RT, Zarr, the scene builders) are imported inside the subcommands.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from . import dataset, plot, presets, scene, simulate, validate
+from .common import PROG, Parser, UserError, formatter, one_line, parse_frames, user_error_types
+
+EXIT_USER_ERROR = 2
+EXIT_INTERRUPTED = 130
+#: Subcommand modules, in the order ``--help`` lists them.
+SUBCOMMANDS = (presets, scene, simulate, plot, validate, dataset)
+EPILOG = """\
+example:
+  sionnafmcw scene build moving_plate scenes/plate
+  sionnafmcw simulate scenes/plate --radar walk-77ghz --out runs/plate.zarr
+  sionnafmcw plot runs/plate.zarr --out figures/plate
+
+'sionnafmcw COMMAND --help' explains each command."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``sionnafmcw`` command (one subparser per module of :data:`SUBCOMMANDS`)."""
+    from .. import __version__
+
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("-q", "--quiet", action="store_true", default=argparse.SUPPRESS, help="no progress bars")
+    parser = Parser(prog=PROG, formatter_class=formatter,
+                    description="Physically grounded FMCW TDM-MIMO radar simulator on Sionna RT.", epilog=EPILOG)
+    parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    parser.add_argument("-q", "--quiet", action="store_true", help="no progress bars")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
+    sub.required = True
+
+    def add(name, help_text, epilog, subparsers=sub):
+        return subparsers.add_parser(name, help=help_text, description=help_text, epilog=epilog,
+                                     formatter_class=formatter, parents=[common])
+
+    for module in SUBCOMMANDS:
+        module.add_parser(add)
+    return parser
+
+
+def main(argv=None) -> int:
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    parser = build_parser()
+    try:
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help, --version
+            return int(exc.code or 0) if not isinstance(exc.code, str) else 1
+        if not hasattr(args, "quiet"):
+            args.quiet = False
+        return int(args.func(args) or 0)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted (a simulate run resumes where it stopped when started again)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    except user_error_types() as err:
+        print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)
+        return EXIT_USER_ERROR
+
+
+__all__ = ["EXIT_INTERRUPTED", "EXIT_USER_ERROR", "PROG", "SUBCOMMANDS", "UserError", "build_parser", "main",
+           "parse_frames"]
