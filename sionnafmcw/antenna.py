@@ -19,8 +19,9 @@ towards :math:`+y`), as in Sionna RT.
     i.e. 8 dBi at boresight, 65 degree half-power beamwidth, 30 dB front-to-back ratio; a fair
     stand-in for the patch elements of 77 GHz radar boards.
 
-The path engine hands the same name to Sionna's ``PlanarArray`` so that both engines and the
-analytic point targets apply one and the same gain.
+The path engine hands the same name to Sionna's antenna-pattern registry (its elements form a
+custom ``AntennaArray``, :mod:`sionnafmcw.engines.path`), so that both engines and the analytic
+point targets apply one and the same gain.
 """
 
 from __future__ import annotations

@@ -25,10 +25,10 @@ through ``simulate``)::
     import numpy as np
     from sionnafmcw import Echoes
     from sionnafmcw.engines import Engine
-    from sionnafmcw.geometry import radial_velocity, world_phase_centre
+    from sionnafmcw.geometry import rotation_matrix, world_to_radar
 
     class CentroidEngine(Engine):
-        """Every moving object is a point target of RCS ``rcs`` (m^2) at its centroid."""
+        """Every moving object is an ideal point target of RCS ``rcs`` (m^2) at its mesh centroid."""
 
         name = "centroid"
 
@@ -40,13 +40,18 @@ through ``simulate``)::
             return {"rcs": self.rcs}
 
         def _load(self, scene, animation, radar):
-            return None                     # nothing beyond the loaded scene
+            return None  # nothing beyond the loaded scene
 
         def _frame_echoes(self, animation, radar, frame, pose):
             names = animation.object_names
-            positions = animation.object_positions(frame, names)
-            ...                             # ranges, radial velocities from the phase centre
-            return Echoes.point_targets(radar, ranges, velocities, rcs=self.rcs, labels=names), {}
+            centroids = animation.object_positions(frame, names)
+            p = world_to_radar(np.array([centroids[n] for n in names]), pose.position, pose.orientation)
+            v = np.array([animation.object_velocity(frame, n) for n in names]) @ rotation_matrix(pose.orientation)
+            ranges = np.linalg.norm(p, axis=-1)
+            radial = np.einsum("ij,ij->i", v, p) / ranges  # positive receding
+            echoes = Echoes.point_targets(radar, ranges, radial, np.arctan2(p[:, 1], p[:, 0]),
+                                          np.arcsin(p[:, 2] / ranges), rcs=self.rcs, labels=names)
+            return echoes, {"num_targets": len(names)}   # the figures land in engine.stats
 
     # where the package registers its engines (e.g. its __init__.py)
     from sionnafmcw import engines

@@ -1,8 +1,8 @@
 r"""Pixel engine: every pixel of a render from the radar is a point target (eq. (2) of the reference paper).
 
 The reference paper is Y. Liu, M. Ahmadi, J. Fuchs, M. Alaee-Kerahroodi and M. R. Bhavani Shankar,
-"A Blender-based channel simulator for FMCW radar", IEEE conference paper, Interdisciplinary Centre
-for Security, Reliability and Trust (SnT), University of Luxembourg; its eq. (2) models the beat
+"A Blender-based channel simulator for FMCW radar", Interdisciplinary Centre for Security,
+Reliability and Trust (SnT), University of Luxembourg (see ``docs/index.md``); its eq. (2) models the beat
 signal as a sum over the pixels of a render, each pixel a point target with range, strength,
 angle and velocity. "The paper" below is this one.
 
