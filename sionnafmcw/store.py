@@ -350,19 +350,19 @@ class Run:
         k = self._object_index(obj)
         return np.where(self.done_mask, np.asarray(self._group["truth_radial_velocity"][:, k], float), np.nan)
 
-    def truth_position(self, obj: str) -> np.ndarray:
+    def object_position(self, obj: str) -> np.ndarray:
         """World position of ``obj`` at the CPI starts ``[frame, 3]`` (m); NaN for frames not done."""
         k = self._object_index(obj)
         return np.where(self.done_mask[:, None], np.asarray(self._group["truth_position"][:, k, :], float), np.nan)
 
-    def truth_velocity(self, obj: str) -> np.ndarray:
+    def object_velocity(self, obj: str) -> np.ndarray:
         """World velocity of ``obj`` at the CPI starts ``[frame, 3]`` (m/s); NaN for frames not done."""
         k = self._object_index(obj)
         return np.where(self.done_mask[:, None], np.asarray(self._group["truth_velocity"][:, k, :], float), np.nan)
 
-    def truth_range(self, obj: str) -> np.ndarray:
+    def object_range(self, obj: str) -> np.ndarray:
         r"""Range of ``obj`` from the phase centre at the CPI starts, :math:`\lVert\mathbf p_n - \mathbf c_w\rVert` ``[frame]`` (m)."""
-        return np.linalg.norm(self.truth_position(obj) - self.phase_centre, axis=-1)
+        return np.linalg.norm(self.object_position(obj) - self.phase_centre, axis=-1)
 
     def truth_at_cpi_centre(self, obj: str) -> np.ndarray:
         """Radial velocity of ``obj`` at every CPI centre ``[frame]`` (m/s): :func:`radial_velocity_at_cpi_centre`
@@ -371,7 +371,7 @@ class Run:
         out = np.full(self.num_frames, np.nan)
         if done.size:
             out[done] = radial_velocity_at_cpi_centre(
-                self.frame_times[done], self.truth_position(obj)[done], self.truth_velocity(obj)[done],
+                self.frame_times[done], self.object_position(obj)[done], self.object_velocity(obj)[done],
                 self.phase_centre, self.radar.cpi_duration)
         return out
 

@@ -150,7 +150,7 @@ class Examples:
             out.update(radial_velocity=nan, range=nan.copy())
         else:
             out["radial_velocity"] = run.truth(obj)[sl].astype(np.float32)
-            out["range"] = run.truth_range(obj)[sl].astype(np.float32)
+            out["range"] = run.object_range(obj)[sl].astype(np.float32)
         return out
 
     def item_label(self, name: str, example: Example):

@@ -124,7 +124,7 @@ def store_labels(store, label_object: str | None = None) -> dict:
     obj = choose_label_object(objects, label_object)
     times = run.frame_times
     radial = run.truth(obj) if obj else np.full(n, np.nan)  # NaN for frames not done
-    ranges = run.truth_range(obj) if obj else np.full(n, np.nan)
+    ranges = run.object_range(obj) if obj else np.full(n, np.nan)
     return {"label_object": obj, "objects": objects, "num_frames": int(n), "frame_done": done.tolist(),
             "frame_time": times.tolist(), "radial_velocity": radial.tolist(), "range": ranges.tolist()}
 

@@ -68,7 +68,7 @@ def analyse(run, obj: str = TRUTH_OBJECT, frames=None) -> dict:
     times = run.frame_times[frames]
     spectrogram = processing.micro_doppler_spectrogram(iq, radar, times)
     bin_v = radar.velocity_resolution
-    pos = run.truth_position(obj)[frames]
+    pos = run.object_position(obj)[frames]
     return {
         "track": track, "truth": truth, "times": times, "spectrogram": spectrogram, "truth_position": pos,
         "e_velo": float(np.mean(np.abs(err))),

@@ -184,7 +184,7 @@ def _gated_tracks(run_path, run_pixel, frames, objects, gate: float, clutter_rem
     """Strongest-cell velocity ``[frame, object]`` inside a range gate of +-``gate`` m around each object."""
     radar = run_path.radar
     objects = [o for o in (objects or run_path.objects) if o in run_path.objects]
-    rng = {o: run_path.truth_range(o) for o in objects}  # [frame] from the phase centre
+    rng = {o: run_path.object_range(o) for o in objects}  # [frame] from the phase centre
     out = {}
     for k, run in (("path", run_path), ("pixel", run_pixel)):
         v = np.zeros((len(frames), len(objects)))
