@@ -86,6 +86,22 @@ def test_round_trip_is_bit_exact(preset, tmp_path):
     assert "profileCfg" in (tmp_path / "a" / "capture.cfg").read_text()
 
 
+def test_bare_bin_with_the_boards_own_cfg(tmp_path):
+    """A real board's capture: a bare adc_data.bin and the SDK .cfg it ran (no sidecar, no comments of ours)."""
+    radar = small()
+    cube = counting_cube(radar, frames=2)
+    write_dca1000(cube, radar, tmp_path / "cap", scale=1.0)
+    sdk_cfg = tmp_path / "profile.cfg"
+    sdk_cfg.write_text("\n".join(line for line in (tmp_path / "cap" / "capture.cfg").read_text().splitlines()
+                                 if not line.startswith("%")).replace("frameCfg 0 2 4 0", "frameCfg 0 2 4 2"))
+    bare = tmp_path / "adc_data.bin"
+    bare.write_bytes((tmp_path / "cap" / "adc_data.bin").read_bytes())
+    np.testing.assert_array_equal(read_dca1000(bare, sdk_cfg), cube)
+    bare.write_bytes(bare.read_bytes()[: bare.stat().st_size // 2])        # numFrames 2 in the .cfg
+    with pytest.raises(CaptureError, match="expected 2 frames"):
+        read_dca1000(bare, sdk_cfg)
+
+
 def test_receiver_noise_in_counts(tmp_path):
     """Thermal noise k T0 F Fs lands at sqrt(P_n) * 10^(G/20) * 32767 / sqrt(P_FS) counts rms."""
     radar = RadarConfig.preset("ti-awr1843boost")

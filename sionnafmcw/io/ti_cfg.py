@@ -127,12 +127,14 @@ def board_of(spec) -> Board:
 
 
 def board_for_radar(radar: RadarConfig, board=None) -> Board:
-    """The board of ``radar``: ``board`` when given, else the board whose preset ``radar`` was named after."""
+    """The board of ``radar``: ``board`` when given, else the board whose preset ``radar`` was named
+    after (``ti-awr1843boost``, ``ti-awr1843boost*``) or that :func:`read_ti_cfg` named it after
+    (``awr1843boost-cfg``)."""
     if board is not None:
         return board_of(board)
     name = radar.name.rstrip("*")
     for candidate in BOARDS.values():
-        if name == candidate.preset:
+        if name in (candidate.preset, f"{candidate.name}-cfg"):
             return candidate
     raise TiCfgError(f"radar {radar.name!r} is not a TI board preset; say which board it runs on "
                      f"(board= one of {', '.join(BOARDS)})")
