@@ -247,6 +247,15 @@ scene.collection.objects.link(cam)
 scene.camera = cam
 exporter.export_animation(out + "/camera_anim", f0, f0)
 
+# names that need XML escaping, in an object and a material name
+odd = mesh_object('odd <&"> name', cube_v(0.1), cube_f, [material('Steel & "Iron" <1>', "itu:metal")],
+                  location=(1.0, 1.0, 0.5))
+exporter.export_animation(out + "/odd_anim", f0, f0)
+bpy.data.objects.remove(odd)
+# the exporter writes with the simulator's own (numpy-only) writers
+facts["writers"] = {name: getattr(exporter, name).__module__
+                    for name in ("ply_bytes", "write_frame_xml", "write_animation", "atomic_directory")}
+
 # neither radar nor camera
 scene.camera = None
 bpy.data.objects.remove(cam)
@@ -305,13 +314,13 @@ def test_layout_materials_and_shared_static_meshes(anim):
     assert np.allclose(anim.times, np.arange(anim.num_frames) / FPS)
     # moving objects only in the manifest; the room is split per material and stays static
     assert sorted(anim.object_names) == ["arm", "box", "flag"]
-    shapes = anim.scene(0).shapes
+    shapes = anim.frame_xml(0).shapes
     assert sorted(shapes) == ["arm", "box", "flag", "room/Concrete", "room/itu_plasterboard"]
     for name in ("room/Concrete", "room/itu_plasterboard"):
-        files = {anim.scene(i).shapes[name].filename for i in range(anim.num_frames)}
+        files = {anim.frame_xml(i).shapes[name].filename for i in range(anim.num_frames)}
         assert len(files) == 1 and next(iter(files)).parent.name == "meshes"
     for name in ("box", "arm", "flag"):
-        files = {anim.scene(i).shapes[name].filename for i in range(anim.num_frames)}
+        files = {anim.frame_xml(i).shapes[name].filename for i in range(anim.num_frames)}
         assert len(files) == anim.num_frames
     assert len(list((anim.path / "meshes").glob("*.ply"))) == 2 + 3 * anim.num_frames
     # radio materials: property, naming rule, JSON dict, skin; no id Sionna would replace
@@ -436,6 +445,65 @@ def test_addon_operator_exports(blend_dir):
     assert facts["operator"] == ["FINISHED"]
     anim = load_animation(blend_dir / "operator_anim")
     assert anim.num_frames == 2 and sorted(anim.object_names) == ["arm", "box", "flag"]
+
+
+def test_exporter_uses_the_shared_writers_and_escapes_names(blend_dir):
+    facts = json.loads((blend_dir / "facts.json").read_text())
+    assert facts["writers"] == {"ply_bytes": "sionnafmcw.animation.ply",
+                                "write_frame_xml": "sionnafmcw.animation.frame_xml",
+                                "write_animation": "sionnafmcw.animation.manifest",
+                                "atomic_directory": "sionnafmcw.fs"}
+    anim = load_animation(blend_dir / "odd_anim")
+    shapes = anim.frame_xml(0).shapes
+    assert 'odd <&"> name' in shapes
+    assert shapes['odd <&"> name'].material.id == 'mat-Steel & "Iron" <1>'
+
+
+ADDON_SCRIPT = r'''
+import json, sys
+import bpy, addon_utils
+zip_path, out = sys.argv[sys.argv.index("--") + 1:]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+bpy.ops.preferences.addon_install(filepath=zip_path)
+addon_utils.enable("sionnafmcw_export", default_set=True)
+import sionnafmcw_export
+import sionnafmcw.animation.ply as ply
+scene = bpy.context.scene
+me = bpy.data.meshes.new("plate")
+me.from_pydata([(3, -0.2, -0.2), (3, 0.2, -0.2), (3, 0.2, 0.2), (3, -0.2, 0.2)], [], [(0, 1, 2, 3)])
+m = bpy.data.materials.new("Steel")
+m["radio_material"] = "itu:metal"
+me.materials.append(m)
+scene.collection.objects.link(bpy.data.objects.new("plate", me))
+scene.collection.objects.link(bpy.data.objects.new("radar", None))
+result = bpy.ops.export_scene.sionnafmcw(filepath=out, use_scene_range=False, frame_start=1, frame_end=1)
+print("FACTS" + json.dumps({"addon": sionnafmcw_export.__file__, "ply": ply.__file__, "result": sorted(result)}))
+'''
+
+
+def test_addon_zip_installs_and_exports_without_the_checkout(tmp_path):
+    """The add-on zip, installed into a fresh user-scripts folder and run outside the checkout,
+    brings its own copy of the writers and exports through the File > Export operator."""
+    import os
+
+    from sionnafmcw.blender import ADDON_NAME, addon_zip
+
+    python = _blender_python()
+    zip_path = addon_zip(tmp_path / "addon.zip")
+    (tmp_path / "install.py").write_text(ADDON_SCRIPT)
+    env = {**os.environ, "BLENDER_USER_SCRIPTS": str(tmp_path / "scripts")}
+    env.pop("PYTHONPATH", None)
+    proc = subprocess.run([str(python), str(tmp_path / "install.py"), "--", str(zip_path), str(tmp_path / "out")],
+                          capture_output=True, text=True, timeout=BPY_TIMEOUT, cwd=tmp_path, env=env)
+    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("FACTS")]
+    assert proc.returncode == 0 and lines, proc.stdout[-3000:] + proc.stderr[-3000:]
+    facts = json.loads(lines[0][len("FACTS"):])
+    installed = tmp_path / "scripts" / "addons" / ADDON_NAME
+    assert Path(facts["addon"]).parent == installed
+    assert Path(facts["ply"]).is_relative_to(installed)
+    assert facts["result"] == ["FINISHED"]
+    anim = load_animation(tmp_path / "out")
+    assert anim.num_frames == 1 and set(anim.frame_xml(0).shapes) == {"plate"}
 
 
 def test_simulated_box_range_and_velocity_match_keyframes(anim, tmp_path):

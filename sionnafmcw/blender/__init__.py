@@ -20,7 +20,9 @@ exporter as a subprocess in
     simulate(load_animation(scene), "walk-77ghz", out="runs/room.zarr")
 
 What is written (materials, velocities, the radar pose) is described in the docstring of the
-exporter script, :func:`script_path`.
+exporter script, :func:`script_path`. The exporter imports the numpy-only writers of
+:mod:`sionnafmcw.animation` and :mod:`sionnafmcw.fs` (from this checkout); :func:`addon_zip`
+bundles them with it as a Blender add-on.
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import os
 import shutil
 import subprocess
 import sys
+import zipfile
 from pathlib import Path
 
 ERROR_MARKER = "sionnafmcw-export: error: "
@@ -53,6 +56,30 @@ class BlenderExportError(RuntimeError):
 def script_path() -> Path:
     """Path of the exporter script (``sionnafmcw/blender/export.py``), for ``blender -P`` or an add-on install."""
     return Path(__file__).resolve().with_name("export.py")
+
+
+#: Name of the add-on package inside :func:`addon_zip`'s zip.
+ADDON_NAME = "sionnafmcw_export"
+#: Modules of ``sionnafmcw`` the exporter imports (numpy and the standard library only), bundled in the add-on.
+ADDON_MODULES = ("__init__.py", "_llvm.py", "fs.py", "animation/*.py")
+
+
+def addon_zip(path) -> Path:
+    """Write the Blender add-on (Edit > Preferences > Add-ons > Install from disk) to the zip ``path``.
+
+    The zip holds the package ``sionnafmcw_export``: the exporter script as its ``__init__.py``
+    and, under ``sionnafmcw_export/sionnafmcw/``, the modules it imports (:data:`ADDON_MODULES`),
+    so the installed add-on needs nothing but Blender. Returns ``path``.
+    """
+    path = Path(path)
+    package = Path(__file__).resolve().parents[1]
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as zf:
+        zf.write(script_path(), f"{ADDON_NAME}/__init__.py")
+        for pattern in ADDON_MODULES:
+            for file in sorted(package.glob(pattern)):
+                zf.write(file, f"{ADDON_NAME}/sionnafmcw/{file.relative_to(package).as_posix()}")
+    return path
 
 
 def _venv_python(venv: Path) -> Path:
@@ -155,4 +182,5 @@ def export_blend(blend_file, out, frames=None, python=None, blender=None, radar=
     return out
 
 
-__all__ = ["BLENDER_VENV", "BlenderExportError", "export_blend", "export_command", "find_runner", "script_path"]
+__all__ = ["ADDON_NAME", "BLENDER_VENV", "BlenderExportError", "addon_zip", "export_blend", "export_command",
+           "find_runner", "script_path"]

@@ -1,7 +1,11 @@
-r"""Blender -> sionnafmcw animation directory (NOTES section 3a). Runs inside Blender's Python.
+r"""Blender -> sionnafmcw animation directory (layout: :mod:`sionnafmcw.animation`). Runs inside Blender's Python.
 
-This file needs only ``bpy``, ``mathutils``, numpy (< 2 inside Blender) and the standard
-library; it does not import the ``sionnafmcw`` package. Four ways to run it:
+This file needs ``bpy``, ``mathutils``, numpy (< 2 inside Blender), the standard library and
+the numpy-only parts of ``sionnafmcw``: the PLY, frame-XML and manifest writers of
+:mod:`sionnafmcw.animation` and the atomic directory of :mod:`sionnafmcw.fs` (importing
+``sionnafmcw`` loads nothing else). Run from a checkout, it puts the checkout on ``sys.path``;
+installed as an add-on, it uses the copy of those modules bundled in the add-on's zip. Four
+ways to run it:
 
 * Blender binary::
 
@@ -24,8 +28,10 @@ library; it does not import the ``sionnafmcw`` package. Four ways to run it:
       exporter = importlib.util.module_from_spec(spec); spec.loader.exec_module(exporter)
       exporter.export_animation("/tmp/my_scene", frame_start=1, frame_end=48)
 
-  or install this file as an add-on (Edit > Preferences > Add-ons > Install from disk) and use
-  File > Export > sionnafmcw radar animation.
+  or install the add-on (Edit > Preferences > Add-ons > Install from disk) and use
+  File > Export > sionnafmcw radar animation. The add-on is a zip that bundles this file with the
+  writers it imports; write it from the simulator's environment with
+  ``python -c "from sionnafmcw.blender import addon_zip; addon_zip('sionnafmcw_export.zip')"``.
 
 Options: ``--frames A:B`` exports Blender frames A to B, both included (default: the scene's
 frame range); ``--radar NAME`` names the radar object (default ``radar``, else the scene camera);
@@ -40,8 +46,9 @@ float [+ vx vy vz float], ``face`` list uchar int). A mesh file is written once 
 content: an object whose evaluated world geometry never changes has one file,
 ``meshes/<name>.ply``, shared by all frames; a moving one has ``meshes/<name>_NNNN.ply`` (NNNN:
 the first frame that uses it). The export goes to a hidden sibling directory that is renamed to
-``OUT`` at the end, so a failed export leaves nothing half-written (an existing ``OUT`` is
-replaced only when it is empty or an earlier animation directory).
+``OUT`` at the end (:func:`sionnafmcw.fs.atomic_directory`), so a failed export leaves nothing
+half-written (an existing ``OUT`` is replaced only when it is empty or an earlier animation
+directory).
 
 Geometry
 --------
@@ -145,13 +152,31 @@ import json
 import math
 import os
 import re
-import shutil
 import sys
 import time
 import traceback
 from pathlib import Path
 
 import numpy as np
+
+
+def _put_sionnafmcw_on_path() -> None:
+    """Make the numpy-only writers importable: the checkout this file is in (run as a script or
+    loaded from its path), or the copy bundled next to it (the add-on zip, :func:`sionnafmcw.blender.addon_zip`)."""
+    here = Path(__file__).resolve()
+    for root in (here.parents[2] if len(here.parents) > 2 else None, here.parent):
+        if root is not None and (root / "sionnafmcw" / "animation" / "__init__.py").is_file():
+            if str(root) not in sys.path:
+                sys.path.insert(0, str(root))
+            return
+
+
+_put_sionnafmcw_on_path()
+
+from sionnafmcw.animation.frame_xml import write_frame_xml  # noqa: E402  (after the path set-up above)
+from sionnafmcw.animation.manifest import write_animation  # noqa: E402
+from sionnafmcw.animation.ply import ply_bytes  # noqa: E402
+from sionnafmcw.fs import atomic_directory  # noqa: E402
 
 try:  # inside Blender (binary or bpy module); the pure maths below works without it
     import bpy
@@ -169,7 +194,6 @@ bl_info = {
     "category": "Import-Export",
 }
 
-FORMAT = "sionnafmcw-animation/1"
 ERROR_MARKER = "sionnafmcw-export: error: "
 
 #: ITU-R P.2040 material types Sionna RT 2.2 knows (``ITU_MATERIALS_PROPERTIES``).
@@ -178,6 +202,9 @@ ITU_TYPES = ("vacuum", "concrete", "brick", "plasterboard", "wood", "glass", "ce
 #: Custom material names sionnafmcw.materials attaches by id (must not be used for other materials).
 CUSTOM_NAMES = ("skin", "skin_dry", "skin_wet")
 SKIN_TISSUES = ("dry", "wet")
+#: ``radio_material`` strings and material names (lower case) that mean skin, and their tissue.
+SKIN_NAMES = {"skin": "dry", "skin:dry": "dry", "skin_dry": "dry", "skin-dry": "dry",
+              "skin:wet": "wet", "skin_wet": "wet", "skin-wet": "wet"}
 #: radio-material properties Sionna RT 2.2 reads from XML (its XML loader has no way to choose a
 #: scattering pattern: diffuse scattering from XML is Lambertian).
 FLOAT_KEYS = ("relative_permittivity", "conductivity", "thickness", "scattering_coefficient", "xpd_coefficient")
@@ -280,10 +307,8 @@ def parse_radio_material(value, where: str = "") -> tuple:
             low = text.lower()
             if low.startswith("itu:") or low.startswith("itu_"):
                 return _itu(text[4:].strip(), {}, pre)
-            if low in ("skin", "skin:dry", "skin_dry"):
-                return "skin-radio-material", {"tissue": ("string", "dry")}
-            if low in ("skin:wet", "skin_wet"):
-                return "skin-radio-material", {"tissue": ("string", "wet")}
+            if low in SKIN_NAMES:
+                return _skin(SKIN_NAMES[low], {})
             raise ExportError(
                 f"{pre}radio_material {text!r} is not understood; use 'itu:<type>' (e.g. 'itu:concrete'), 'skin', "
                 "'skin:wet' or a JSON dict such as "
@@ -326,7 +351,11 @@ def parse_radio_material(value, where: str = "") -> tuple:
         return _itu(str(val), props, pre)
     if val not in SKIN_TISSUES:
         raise ExportError(f"{pre}radio_material skin tissue {val!r} is unknown; choose one of {', '.join(SKIN_TISSUES)}")
-    return "skin-radio-material", {"tissue": ("string", val), **props}
+    return _skin(val, props)
+
+
+def _skin(tissue: str, props: dict) -> tuple:
+    return "skin-radio-material", {"tissue": ("string", tissue), **props}
 
 
 def _itu(itu_type: str, props: dict, pre: str) -> tuple:
@@ -349,10 +378,8 @@ def radio_material_of(material, object_name: str) -> tuple:
     low = base.lower()
     if low.startswith("itu_") or low.startswith("itu-"):
         return _itu(low[4:], {}, f"{where} (by its name)")
-    if low in ("skin", "skin_dry", "skin-dry"):
-        return "skin-radio-material", {"tissue": ("string", "dry")}
-    if low in ("skin_wet", "skin-wet"):
-        return "skin-radio-material", {"tissue": ("string", "wet")}
+    if low in SKIN_NAMES:
+        return _skin(SKIN_NAMES[low], {})
     raise ExportError(
         f"{where} has no radio material. Fix: add the custom property 'radio_material' to material "
         f"{material.name!r} (Material Properties > Custom Properties), e.g. 'itu:concrete', 'itu:metal', 'skin' or "
@@ -529,57 +556,7 @@ def _check_same_topology(a: _Sample, b: _Sample) -> None:
             )
 
 
-# ===================================================================================== writing
-def ply_bytes(vertices, triangles, vertex_velocities=None) -> bytes:
-    """Binary little-endian PLY in the layout of ``sionnafmcw.animation.write_ply``."""
-    v = np.asarray(vertices, dtype="<f4").reshape(-1, 3)
-    f = np.asarray(triangles, dtype="<i4").reshape(-1, 3)
-    props = ["x", "y", "z"]
-    cols = [v]
-    if vertex_velocities is not None:
-        props += ["vx", "vy", "vz"]
-        cols.append(np.asarray(vertex_velocities, dtype="<f4").reshape(-1, 3))
-    header = ["ply", "format binary_little_endian 1.0", f"element vertex {len(v)}"]
-    header += [f"property float {p}" for p in props]
-    header += [f"element face {len(f)}", "property list uchar int vertex_indices", "end_header"]
-    frec = np.zeros(len(f), dtype=[("n", "u1"), ("i", "<i4", (3,))])
-    frec["n"] = 3
-    frec["i"] = f
-    table = np.concatenate(cols, axis=1).astype("<f4")
-    return ("\n".join(header) + "\n").encode("ascii") + table.tobytes() + frec.tobytes()
-
-
-def _attr(value) -> str:
-    return (str(value).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-            .replace('"', "&quot;"))
-
-
-def frame_xml(shapes, materials) -> str:
-    """Mitsuba scene XML in the layout of ``sionnafmcw.animation.scene_xml`` (names escaped).
-
-    ``shapes``: ``[(name, ply path relative to the XML, material id)]``; ``materials``:
-    ``{id: (bsdf type, {prop: (xml tag, value)})}``.
-    """
-    lines = ['<scene version="2.1.0">']
-    for mid, (mtype, props) in materials.items():
-        if props:
-            lines.append(f'    <bsdf type="{mtype}" id="{_attr(mid)}">')
-            for k, (tag, v) in props.items():
-                val = repr(float(v)) if tag == "float" else v
-                lines.append(f'        <{tag} name="{k}" value="{_attr(val)}"/>')
-            lines.append("    </bsdf>")
-        else:
-            lines.append(f'    <bsdf type="{mtype}" id="{_attr(mid)}"/>')
-    for name, ply, mid in shapes:
-        lines.append(f'    <shape type="ply" id="mesh-{_attr(name)}">')
-        lines.append(f'        <string name="filename" value="{_attr(ply)}"/>')
-        lines.append('        <boolean name="face_normals" value="true"/>')
-        lines.append(f'        <ref id="{_attr(mid)}"/>')
-        lines.append("    </shape>")
-    lines.append("</scene>")
-    return "\n".join(lines) + "\n"
-
-
+# ===================================================================================== file names
 def _safe_filename(name: str) -> str:
     safe = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("._") or "object"
     return safe[:100]
@@ -619,32 +596,14 @@ def _find_radar(scene, radar: str | None):
     )
 
 
-def _prepare_output(out: Path) -> Path:
+def _check_output(out: Path) -> None:
+    """Refuse an ``out`` that is a file or a non-empty directory other than an animation directory."""
     if out.exists():
         if not out.is_dir():
             raise ExportError(f"{out} exists and is not a directory; choose another output path")
         if any(out.iterdir()) and not (out / "animation.json").is_file():
             raise ExportError(f"{out} is a non-empty directory that is not an animation directory; "
                               "refusing to replace it: choose another output path")
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.parent / f".{out.name}.partial-{os.getpid()}"
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    (tmp / "frames").mkdir(parents=True)
-    (tmp / "meshes").mkdir()
-    return tmp
-
-
-def _commit_output(tmp: Path, out: Path) -> None:
-    old = None
-    if out.exists():
-        old = out.parent / f".{out.name}.old-{os.getpid()}"
-        if old.exists():
-            shutil.rmtree(old)
-        os.rename(out, old)
-    os.rename(tmp, out)
-    if old is not None:
-        shutil.rmtree(old, ignore_errors=True)
 
 
 def export_animation(out, frame_start=None, frame_end=None, radar: str | None = "radar",
@@ -678,14 +637,13 @@ def export_animation(out, frame_start=None, frame_end=None, radar: str | None = 
     radar_obj, is_camera, radar_desc = _find_radar(scene, radar)
     out = Path(out).expanduser().resolve()
     original_frame = (scene.frame_current, scene.frame_subframe)
-    tmp = _prepare_output(out)
+    _check_output(out)
     t0 = time.perf_counter()
     try:
-        result = _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log)
-        _commit_output(tmp, out)
-    except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise
+        with atomic_directory(out, replace=True) as tmp:
+            (tmp / "frames").mkdir()
+            (tmp / "meshes").mkdir()
+            result = _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log)
     finally:
         scene.frame_set(original_frame[0], subframe=original_frame[1])
     log(f"sionnafmcw-export: {out}: {result['frames']} frames at {fps:g} fps, {result['objects']} objects "
@@ -785,22 +743,19 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
     xml_materials = {mat_ids[m]: spec for m, spec in sorted(materials_used.items(), key=lambda kv: mat_ids[kv[0]])}
     manifest_frames = []
     for i, fr in enumerate(frames):
-        shapes = [(name, f"../meshes/{rename.get(stem, stem)}.ply", mat_ids[mat]) for name, stem, mat in fr["shapes"]]
-        used_ids = {mid for _, _, mid in shapes}
-        mats = {mid: spec for mid, spec in xml_materials.items() if mid in used_ids}
-        (tmp / "frames" / f"{i:04d}.xml").write_text(frame_xml(shapes, mats))
-        manifest_frames.append({
-            "index": i, "time": i / fps, "xml": f"frames/{i:04d}.xml",
-            "objects": {n: {"velocity": [float(x) for x in v]} for n, v in fr["objects"].items() if n in moving},
-        })
+        shapes = [{"name": name, "ply": f"../meshes/{rename.get(stem, stem)}.ply", "material": mat_ids[mat]}
+                  for name, stem, mat in fr["shapes"]]
+        used_ids = {s["material"] for s in shapes}
+        mats = {mid: (mtype, {k: v for k, (_, v) in props.items()})
+                for mid, (mtype, props) in xml_materials.items() if mid in used_ids}
+        write_frame_xml(tmp / "frames" / f"{i:04d}.xml", shapes, mats)
+        manifest_frames.append({"xml": f"frames/{i:04d}.xml",
+                                "objects": {n: v for n, v in fr["objects"].items() if n in moving}})
     if radar_moves:
         log(f"sionnafmcw-export: warning: the radar ({radar_desc}) moves during the exported frames; the manifest "
             f"holds one radar pose, the one of frame {a}")
-    manifest = {
-        "format": FORMAT,
-        "fps": float(fps),
-        "radar": radar_pose_from_matrix(radar_matrix0 if radar_matrix0 is not None else np.eye(4), is_camera),
-        "frames": manifest_frames,
+    radar_pose = radar_pose_from_matrix(radar_matrix0 if radar_matrix0 is not None else np.eye(4), is_camera)
+    write_animation(tmp, manifest_frames, fps, radar_pose, extra={
         "source": {
             "generator": "sionnafmcw/blender/export.py",
             "blender": bpy.app.version_string,
@@ -813,8 +768,7 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
                               "properties": {k: v for k, (_, v) in spec[1].items()}}
                           for m, spec in sorted(materials_used.items())},
         },
-    }
-    (tmp / "animation.json").write_text(json.dumps(manifest, indent=1))
+    })
     return {"frames": len(frames), "objects": len(all_names), "moving": len(moving), "deforming": len(deforming),
             "files": sum(len(k) for k in files.values())}
 
