@@ -49,7 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ..radar import RadarConfig
-from .ti_cfg import Board, board_for_radar, board_of, parse_ti_cfg, radar_from_ti_cfg, write_ti_cfg
+from .ti_cfg import board_for_radar, board_of, parse_ti_cfg, radar_from_ti_cfg, write_ti_cfg
 
 FORMAT = "sionnafmcw-dca1000/1"
 BIN_NAME = "adc_data.bin"
@@ -239,7 +239,6 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
                            values_per_frame=2 * radar.num_chirps * radar.num_tx * radar.num_rx * radar.num_samples)
     shape = (radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples)
     with atomic_directory(out_dir, replace=replace) as tmp:
-        cfg_text = None
         if board is not None:
             cfg_text = write_ti_cfg(radar, board, frame_period=max(frame_period, radar.cpi_duration),
                                     rx_gain_db=scale_info.get("rx_gain_db", 30.0))

@@ -44,10 +44,11 @@ BPM, per-chirp variations, several transmitters in one chirp, real ADC data), ra
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+
+import numpy as np
 
 from ..radar import RadarConfig, RadarConfigError, _ti_three_tx_layout
 
@@ -377,8 +378,6 @@ def _num(value: float, decimals: int = 6) -> str:
 
 
 def _match_rows(positions, candidates, what, board):
-    import numpy as np
-
     index = []
     for row in positions:
         hits = np.flatnonzero(np.all(np.isclose(candidates, row, rtol=0, atol=1e-9), axis=1))
@@ -416,8 +415,6 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
     dB); ``txStartTime`` is TI's 1 us; the comments ``% sionnafmcw-board`` and ``% sionnafmcw-radar`` let
     :func:`read_ti_cfg` find the board and name again.
     """
-    import numpy as np
-
     board = board_for_radar(radar, board)
     board_tx, board_rx = board.layout()
     tx_index = _match_rows(radar.tx_positions, board_tx, "tx", board)
