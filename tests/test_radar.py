@@ -150,16 +150,16 @@ def test_resolve_names_what_is_not_a_radar(tmp_path):
 
 
 def test_resolve_reads_a_ti_cfg_through_the_io_package(tmp_path):
-    path = tmp_path / "profile.cfg"
-    path.write_text("% not a radar\n")
-    try:
-        import sionnafmcw.io.ti_cfg  # noqa: F401
-    except ImportError:
-        with pytest.raises(RadarConfigError, match=r"profile\.cfg: reading a TI mmWave \.cfg file needs sionnafmcw\.io\.ti_cfg"):
-            RadarConfig.resolve(path)
-    else:  # the reader exists: a file without profileCfg is an error that names the file
-        with pytest.raises(RadarConfigError, match=r"profile\.cfg"):
-            RadarConfig.resolve(path)
+    from sionnafmcw.io.ti_cfg import write_ti_cfg
+
+    preset = RadarConfig.preset("ti-awr1843boost")
+    path = tmp_path / "profile_3d.cfg"
+    path.write_text(write_ti_cfg(preset))
+    assert RadarConfig.resolve(path) == preset and RadarConfig.resolve(str(path)) == preset
+    bad = tmp_path / "empty.cfg"
+    bad.write_text("% no profileCfg here\n")
+    with pytest.raises(RadarConfigError, match=r"empty\.cfg"):
+        RadarConfig.resolve(bad)
 
 
 # ============================================================================ virtual array
