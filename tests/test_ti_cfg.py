@@ -128,6 +128,16 @@ def test_derived_figures_are_tis(preset):
     assert abs(radar.velocity_resolution / velocity_resolution - 1) < 1.2e-4
 
 
+def test_visualiser_header_figures_of_profile_3d():
+    """TI's mmWave visualiser prints its figures in the header of the xWR18xx profile it writes:
+    ``Range Resolution(m): 0.044``, ``Maximum Radial Velocity(m/s): 1``,
+    ``Radial velocity resolution(m/s): 0.13`` (rounded as TI prints them)."""
+    radar = read_ti_cfg(PROFILE_3D_18XX, board="awr1843boost")
+    assert round(radar.range_resolution, 3) == 0.044
+    assert round(radar.max_velocity, 0) == 1
+    assert round(radar.velocity_resolution, 2) == 0.13
+
+
 def test_ignored_commands_are_listed_with_their_lines():
     cfg = parse_ti_cfg(PROFILE_3D_18XX)
     ignored = dict((command, line) for line, command in cfg.ignored)
