@@ -395,8 +395,8 @@ class PixelEngine(Engine):
     FIXED_SETTINGS = {"scattering": "diffuse", "specular": False, "max_depth": 1}
     ARRAY_MODELS = ("plane-wave", "exact")
 
-    def __init__(self, n_az: int = 128, n_el: int = 64, fov_az: float = np.deg2rad(120.0),
-                 fov_el: float = np.deg2rad(60.0), array_model: str = "plane-wave",
+    def __init__(self, n_az: int = 128, n_el: int = 64, fov_az: float = float(np.deg2rad(120.0)),
+                 fov_el: float = float(np.deg2rad(60.0)), array_model: str = "plane-wave",
                  scattering_coefficient: float | None = None, vertex_doppler: bool = True,
                  track_kernels: bool = True):
         if array_model not in self.ARRAY_MODELS:
