@@ -131,11 +131,15 @@ def test_derived_figures_are_tis(preset):
 def test_visualiser_header_figures_of_profile_3d():
     """TI's mmWave visualiser prints its figures in the header of the xWR18xx profile it writes:
     ``Range Resolution(m): 0.044``, ``Maximum Radial Velocity(m/s): 1``,
-    ``Radial velocity resolution(m/s): 0.13`` (rounded as TI prints them)."""
+    ``Radial velocity resolution(m/s): 0.13`` (rounded as TI prints them). The visualiser takes
+    the wavelength at startFreq (the demo firmware, above, and we: at the sweep centre), so its
+    velocity figures are ours times f_mid / f_start (79.2 / 77 GHz)."""
     radar = read_ti_cfg(PROFILE_3D_18XX, board="awr1843boost")
+    to_visualiser = radar.centre_frequency / radar.fc
     assert round(radar.range_resolution, 3) == 0.044
-    assert round(radar.max_velocity, 0) == 1
-    assert round(radar.velocity_resolution, 2) == 0.13
+    assert round(radar.max_velocity * to_visualiser, 0) == 1
+    assert round(radar.velocity_resolution * to_visualiser, 2) == 0.13
+    assert round(radar.velocity_resolution, 2) == 0.12       # the firmware's (and our) figure
 
 
 def test_ignored_commands_are_listed_with_their_lines():
