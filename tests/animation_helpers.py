@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from sionnafmcw.animation import scene_xml, write_animation, write_ply
+from sionnafmcw.animation import frame_xml_text, write_animation, write_ply
 
 METAL = {"mat-itu_metal": ("itu-radio-material", {"type": "metal"})}
 
@@ -78,7 +78,7 @@ def write_moving_mesh_animation(root, mesh_fn, velocity, num_frames=3, fps=10.0,
             if obj.get("manifest_velocity", True):
                 velocity_t = obj["velocity"](t) if callable(obj["velocity"]) else obj["velocity"]
                 objects[obj["name"]] = np.asarray(velocity_t, dtype=float)
-        (root / "frames" / f"{i:04d}.xml").write_text(scene_xml(shapes + static_shapes, materials or METAL))
+        (root / "frames" / f"{i:04d}.xml").write_text(frame_xml_text(shapes + static_shapes, materials or METAL))
         frames.append({"xml": f"frames/{i:04d}.xml", "objects": objects})
     write_animation(root, frames, fps, radar_pose)
     return root

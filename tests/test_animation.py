@@ -12,10 +12,12 @@ from animation_helpers import METAL, box_mesh, plate_mesh, write_moving_mesh_ani
 from sionnafmcw.animation import (
     AnimationError,
     load_animation,
+    frame_xml_text,
     parse_frame_xml,
+    ply_bytes,
     read_ply,
-    scene_xml,
     write_animation,
+    write_frame_xml,
     write_ply,
 )
 
@@ -63,7 +65,7 @@ def test_object_positions_apply_xml_transform_like_mitsuba(tmp_path):
     write_ply(root / "meshes" / "box.ply", v, f)
     ops = [("scale", {"value": "1.5"}), ("rotate", {"z": "1", "angle": "30"}),
            ("translate", {"x": "3", "y": "1", "z": "0.5"}), ("rotate", {"value": "1 1 0", "angle": "10"})]
-    xml = scene_xml([{"name": "box", "ply": "../meshes/box.ply", "material": "mat-itu_metal", "to_world": ops}], METAL)
+    xml = frame_xml_text([{"name": "box", "ply": "../meshes/box.ply", "material": "mat-itu_metal", "to_world": ops}], METAL)
     (root / "frames" / "0000.xml").write_text(xml)
     write_animation(root, [{"xml": "frames/0000.xml", "objects": {"box": [0, 0, 0]}}], fps=24.0,
                     radar_pose=([0, 0, 0], [0, 0, 0]))
@@ -349,3 +351,46 @@ def test_check_frequency_names_material_and_range(tmp_path):
     anim.check_frequency(24e9)  # brick is fine at 24 GHz
     with pytest.raises(MaterialFrequencyError, match=r"shape 'mesh-wall'.*'brick' is not defined at 77 GHz.*1-40 GHz, 110-330 GHz"):
         anim.check_frequency(77e9)
+
+
+def test_frame_xml_writer_escapes_names_and_reads_back(tmp_path):
+    """Object, material and file names with XML's special characters survive the writer and the parser."""
+    v, f = box_mesh((0.0, 0.0, 0.0), (0.2, 0.2, 0.2))
+    write_ply(tmp_path / "meshes" / 'a&b "c".ply', v, f)
+    materials = {'mat-x<&>"y"': ("radio-material", {"relative_permittivity": 5.5, "conductivity": 0.1,
+                                                      "scattering_coefficient": 0.3})}
+    shapes = [{"name": 'box <1> & "2"', "ply": '../meshes/a&b "c".ply', "material": 'mat-x<&>"y"'}]
+    xml = write_frame_xml(tmp_path / "frames" / "0000.xml", shapes, materials)
+    parsed = parse_frame_xml(xml)
+    assert set(parsed.shapes) == {'box <1> & "2"'}
+    shape = parsed.shapes['box <1> & "2"']
+    assert shape.filename == (tmp_path / "meshes" / 'a&b "c".ply').resolve()
+    assert shape.material.id == 'mat-x<&>"y"'
+    assert frame_xml_text(shapes, materials) == xml.read_text()
+
+
+def test_ply_bytes_is_what_write_ply_writes(tmp_path):
+    v, f = box_mesh((1.0, 2.0, 3.0), (0.3, 0.4, 0.5))
+    vel = np.tile([0.5, -1.0, 0.25], (len(v), 1))
+    for binary in (True, False):
+        path = write_ply(tmp_path / f"box_{binary}.ply", v, f, vel, binary=binary)
+        assert path.read_bytes() == ply_bytes(v, f, vel, binary=binary)
+        ply = read_ply(path)
+        np.testing.assert_array_equal(ply.vertices, v.astype(np.float32))
+        np.testing.assert_array_equal(ply.faces, f)
+        np.testing.assert_array_equal(ply.vertex_velocities, vel.astype(np.float32))
+    with pytest.raises(ValueError, match="2 vertex velocities for 8 vertices"):
+        ply_bytes(v, f, vel[:2])
+
+
+def test_animation_package_needs_only_numpy():
+    """The package and the animation writers import without Sionna, Dr.Jit, finufft or matplotlib
+    (the Blender exporter imports them in an environment that has none of these)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, sionnafmcw, sionnafmcw.animation, sionnafmcw.fs\n"
+            "heavy = ('drjit', 'mitsuba', 'sionna', 'finufft', 'matplotlib', 'zarr', 'xarray', 'scipy')\n"
+            "print(sorted(m for m in sys.modules if m.split('.')[0] in heavy))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]"

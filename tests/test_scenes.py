@@ -89,6 +89,21 @@ def test_parse_params_from_command_line_text():
         scenes.parse_params("corner_reflectors", ["rnages=3"])
 
 
+def test_subpackages_are_attributes_of_the_package(tmp_path):
+    """``import sionnafmcw as sf; sf.scenes.build(...)`` in a fresh interpreter (nothing imported before)."""
+    import subprocess
+    import sys
+
+    code = ("import sys, sionnafmcw as sf\n"
+            f"path = sf.scenes.build('moving_plate', {str(tmp_path / 'plate')!r}, num_frames=2)\n"
+            "print(sf.load_animation(path).num_frames, sf.RadarConfig.__name__)\n"
+            "for name in ('dataset', 'validation', 'tf', 'processing', 'plots', 'engines', 'io'):\n"
+            "    assert name in dir(sf), name\n"
+            "print(callable(sf.engines.names), callable(sf.processing.range_doppler_map))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.split() == ["2", "RadarConfig", "True", "True"]
+
+
 def test_build_refuses_non_empty_output_and_overwrites_on_request(tmp_path):
     out = tmp_path / "plate"
     out.mkdir()
