@@ -12,8 +12,8 @@ variable                   dimensions                          dtype      meanin
 =========================  ==================================  =========  =====================================
 ``iq``                     frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
 ``frame_time``             frame                               float64    CPI start :math:`t_n` (s)
-``truth_position``         frame, object, xyz                  float64    object centroid at :math:`t_n` (m, world)
-``truth_velocity``         frame, object, xyz                  float64    object velocity at :math:`t_n` (m/s, world)
+``truth_position``         frame, object, xyz                  float64    area-weighted mesh centroid at :math:`t_n` (m, world)
+``truth_velocity``         frame, object, xyz                  float64    the object's (manifest) velocity at :math:`t_n` (m/s, world)
 ``truth_radial_velocity``  frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
 ``frame_done``             frame                               bool       every array of the frame is written
 ``object``                 object (coordinate)                 str        names of the moving objects
