@@ -2,7 +2,8 @@
 
 ::
 
-    sionnafmcw presets [NAME] [--json | --config] [--from-cfg FILE.cfg]   radar presets and their derived figures
+    sionnafmcw presets [NAME] [--json | --config]                radar presets and their derived figures
+    sionnafmcw presets --from-cfg FILE.cfg                       the radar of a TI mmWave .cfg, likewise
     sionnafmcw scene list [NAME]                                 scenarios and their parameters
     sionnafmcw scene build NAME OUT [--param k=v ...]            write an animation directory
     sionnafmcw simulate SCENE --radar PRESET|FILE --out RUN.zarr [--engine NAME] ...

@@ -51,7 +51,7 @@ class Figures:
         return [self.run.objects.index(n) for n in self.shown]
 
     @cached_property
-    def object_velocity(self):
+    def truth_velocity(self):
         """Radial velocity truth ``[frame, shown object]`` (m/s), or None when no object is shown."""
         if not self.shown:
             return None
@@ -174,7 +174,8 @@ def add_parser(add) -> None:
                    help="micro-Doppler STFT window in chirps (default: a quarter of the CPI)")
     p.add_argument("--dynamic-range", type=float, default=50.0, metavar="DB", help="colour scale span (default 50 dB)")
     p.add_argument("--max-range", type=float, default=None, metavar="M", help="crop rd and ra maps at this range (m)")
-    p.add_argument("--cartesian", action="store_true", help="range-azimuth map in x-y (top view) instead of range-angle")
+    p.add_argument("--cartesian", action="store_true",
+                   help="range-azimuth map in x-y (top view) instead of range-angle")
     p.add_argument("--scene", default=None, metavar="DIR", help="scene for --kind scene (default: the one recorded)")
     p.add_argument("--truth", action="append", default=[], metavar="OBJECT",
                    help="object whose ground truth is drawn, repeatable (default: all when at most six, "
