@@ -107,7 +107,7 @@ def test_per_element_channels_near_field():
     """Every Tx/Rx pair of the 77 GHz array at 1 m from a tilted plate: complex channel = quadrature's.
 
     The tilt (0.02 rad) keeps the echo in the specular main lobe; far off specular (0.2 rad) the
-    return is the plate's edge diffraction, 25 dB down, which a render resolves only to a pixel.
+    return is the plate's edge diffraction, 56 dB below the facing plate, which a render resolves only to a pixel.
     """
     rot = rotation_matrix((0.02, 0.01, 0.3))
     v, f = meshes.plate((0, 0, 0), (0.1, 0.1), normal=(-1, 0, 0), subdiv=2)
