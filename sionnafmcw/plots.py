@@ -23,6 +23,8 @@ import numpy as np
 #: the +-60 degrees of the TI boards' patch arrays.
 DEFAULT_FOV = np.deg2rad(120.0)
 
+#: colour map of every spectrogram (micro-Doppler, and under the Doppler-time track)
+SPECTROGRAM_CMAP = "magma"
 _TRUTH_STYLE = dict(marker="*", linestyle="none", color="red", markeredgecolor="white", markeredgewidth=0.6,
                     markersize=11)
 #: on images: hollow red stars, so that the cell underneath stays visible
@@ -202,7 +204,9 @@ def plot_doppler_time(track, velocities=None, truth_times=None, truth_velocities
     object_names : list of str, optional
         Names of the truth columns, for the legend.
     spectrogram : :class:`~sionnafmcw.processing.MicroDopplerSpectrogram`, optional
-        Drawn underneath in grey (``dynamic_range`` dB).
+        Drawn underneath in dB (``dynamic_range`` dB below its strongest bin, the colour map of
+        :func:`plot_micro_doppler`) with a colour bar, as the paper's Fig. 3 shows it; the
+        estimate is then drawn in white so that it stays visible on the image.
     velocity_limits : (low, high), m/s, optional
         Velocity axis limits, e.g. :math:`\\pm v_{max}`. Default: the data, widened to at least
         ``min_span`` m/s so that millimetre-per-second differences do not look like errors.
@@ -222,9 +226,12 @@ def plot_doppler_time(track, velocities=None, truth_times=None, truth_velocities
             power = power.T
         p, lo, hi = _db(power, dynamic_range)
         t, p = _with_gaps(spectrogram.times, p)
-        ax.pcolormesh(t, spectrogram.velocities, np.ma.masked_invalid(p), shading="nearest", vmin=lo, vmax=hi,
-                      cmap="Greys")
-    ax.plot(est_t, est_v, "b.-", label="estimate (strongest cell)")
+        mesh = ax.pcolormesh(t, spectrogram.velocities, np.ma.masked_invalid(p), shading="nearest", vmin=lo,
+                             vmax=hi, cmap=SPECTROGRAM_CMAP)
+        ax.set_facecolor("white")
+        ax.figure.colorbar(mesh, ax=ax, label="micro-Doppler power (dB W)")
+    estimate_style = "w.-" if spectrogram is not None else "b.-"
+    ax.plot(est_t, est_v, estimate_style, label="estimate (strongest cell)")
     if truth is None:
         truth = truth_velocities
     if truth is not None:
@@ -233,7 +240,8 @@ def plot_doppler_time(track, velocities=None, truth_times=None, truth_velocities
         values = _truth_columns(truth)
         t_truth = est_t if truth_times is None else np.asarray(truth_times, float)
         for j in range(values.shape[1]):
-            ax.plot(t_truth, values[:, j], label=_truth_label(object_names, j, values.shape[1]), **_TRUTH_STYLE)
+            ax.plot(t_truth, values[:, j], label=_truth_label(object_names, j, values.shape[1]),
+                    **(_TRUTH_STYLE_MAP if spectrogram is not None else _TRUTH_STYLE))
     if velocity_limits is not None:
         ax.set_ylim(*velocity_limits)
     elif spectrogram is None:
@@ -288,7 +296,7 @@ def plot_micro_doppler(spectrogram, ax=None, dynamic_range=40.0, title="Micro-Do
     p, lo, hi = _db(power, dynamic_range)
     t, p = _with_gaps(spectrogram.times, p)
     mesh = ax.pcolormesh(t, spectrogram.velocities, np.ma.masked_invalid(p), shading="nearest", vmin=lo, vmax=hi,
-                         cmap="magma")
+                         cmap=SPECTROGRAM_CMAP)
     ax.set_facecolor("white")
     ax.figure.colorbar(mesh, ax=ax, label="power (dB W)")
     if truth is not None:

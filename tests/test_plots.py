@@ -308,11 +308,16 @@ def test_colour_scale_starts_at_the_noise_floor():
 
 
 def test_doppler_time_over_a_spectrogram(spectrogram):
-    """The circle_walk call form: arrays, truth, and the spectrogram in grey underneath (gaps blank)."""
+    """The circle_walk call form: arrays, truth, and the spectrogram in dB underneath (the micro-Doppler
+    colour map, a colour bar, gaps blank), as the paper's Fig. 3 shows it."""
     times = np.array([0.0, 0.04])
     ax = plots.plot_doppler_time(times, [1.0, 1.1], truth_times=times, truth_velocities=[1.0, 1.0],
-                                 spectrogram=spectrogram, title="Doppler-time")
+                                 spectrogram=spectrogram, title="Doppler-time", dynamic_range=30.0)
     mesh = mesh_of(ax)
-    assert mesh.get_cmap().name == "Greys"
+    assert mesh.get_cmap().name == plots.SPECTROGRAM_CMAP != "Greys"
+    low, high = mesh.get_clim()
+    assert high - low <= 30.0 + 1e-9 and high == pytest.approx(np.nanmax(np.ma.filled(mesh.get_array(), np.nan)))
+    colorbars = [a for a in ax.figure.axes if a is not ax]
+    assert len(colorbars) == 1 and "dB" in colorbars[0].get_ylabel()
     assert int(np.ma.getmaskarray(mesh.get_array()).all(axis=0).sum()) == 2
     assert len(truth_lines(ax)) == 1
