@@ -8,11 +8,12 @@
     sionnafmcw scene build NAME OUT [--param k=v ...]            write an animation directory
     sionnafmcw simulate SCENE --radar PRESET|FILE --out RUN.zarr [--engine NAME] ...
     sionnafmcw plot RUN --out DIR [--kind rd|ra|doppler-time|micro-doppler|scene ...] [--frame N]
+    sionnafmcw export RUN --out DIR [--format dca1000|npz] [--board B]   a TI raw capture of a run
     sionnafmcw validate NAME [ARGS ...]                          a validation experiment
     sionnafmcw dataset SPEC --out DIR [--scheduler ADDRESS | --workers N]
 
 Modules: :mod:`.presets`, :mod:`.scene`, :mod:`.simulate`, :mod:`.plot` (figure kinds as a
-table), :mod:`.validate`, :mod:`.dataset`; :mod:`.common` holds the shared parsers and loaders.
+table), :mod:`.export`, :mod:`.validate`, :mod:`.dataset`; :mod:`.common` holds the shared parsers and loaders.
 Each has ``add_parser(add)`` and the function(s) it runs.
 
 Global options: ``--quiet`` (no progress bars), ``--version``. A user error (a missing file, an
@@ -28,13 +29,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import dataset, plot, presets, scene, simulate, validate
+from . import dataset, export, plot, presets, scene, simulate, validate
 from .common import PROG, Parser, UserError, formatter, one_line, parse_frames, user_error_types
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: Subcommand modules, in the order ``--help`` lists them.
-SUBCOMMANDS = (presets, scene, simulate, plot, validate, dataset)
+SUBCOMMANDS = (presets, scene, simulate, plot, export, validate, dataset)
 EPILOG = """\
 example:
   sionnafmcw scene build moving_plate scenes/plate

@@ -203,6 +203,7 @@ LIBRARY_USER_ERRORS = (
     ("sionnafmcw.store", "RunStoreError"), ("sionnafmcw.materials", "MaterialError"),
     ("sionnafmcw.engines.base", "EngineError"),  # every engine's errors, scene loading included
     ("sionnafmcw.dataset.spec", "SpecError"), ("sionnafmcw.dataset.index", "DatasetError"),
+    ("sionnafmcw.io.dca1000", "CaptureError"),
 )
 
 

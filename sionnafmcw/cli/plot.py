@@ -96,6 +96,27 @@ def range_azimuth(fig: Figures) -> Path:
     return plots.save(ax, fig.out / f"range_azimuth_f{fig.frame:04d}.png")
 
 
+def _window(fig: Figures) -> int:
+    """``--window-chirps`` (default a quarter of the CPI's chirps per Tx), checked."""
+    window = fig.args.window_chirps or max(1, fig.radar.num_chirps // 4)
+    if not 1 <= window <= fig.radar.num_chirps:
+        raise UserError(f"--window-chirps {window}: must be in 1..{fig.radar.num_chirps} (chirps per Tx in a CPI)")
+    return window
+
+
+def _spectrogram(fig: Figures, desc: str):
+    """The micro-Doppler spectrogram of the done frames (``--range-gate``, ``--window-chirps``)."""
+    from .. import processing
+
+    window = _window(fig)
+    try:
+        return processing.micro_doppler_spectrogram(fig.cubes(desc), fig.radar, fig.times[fig.done],
+                                                    range_gate=fig.gate, window_chirps=window,
+                                                    clutter_removal=fig.clutter_removal)
+    except ValueError as err:
+        raise UserError(f"--range-gate/--window-chirps: {err}") from None
+
+
 def doppler_time(fig: Figures) -> Path:
     from .. import plots, processing
 
@@ -104,25 +125,21 @@ def doppler_time(fig: Figures) -> Path:
                                         range_gate=fig.gate)
     except ValueError as err:  # an empty range gate
         raise UserError(f"--range-gate: {err}") from None
+    spectrogram = _spectrogram(fig, "micro-Doppler (under the track)")
     truth = None if fig.truth_velocity is None else fig.truth_velocity[fig.done]
     ax = plots.plot_doppler_time(track, times=fig.times[fig.done], truth=truth, object_names=fig.shown,
+                                 spectrogram=spectrogram, dynamic_range=fig.args.dynamic_range,
                                  velocity_limits=(-fig.radar.max_velocity, fig.radar.max_velocity),
-                                 title=f"Doppler-time (strongest cell)\n{fig.caption()}")
+                                 title=f"Doppler-time (strongest cell) over the micro-Doppler spectrogram\n"
+                                       f"{fig.caption()}")
     return plots.save(ax, fig.out / "doppler_time.png")
 
 
 def micro_doppler(fig: Figures) -> Path:
-    from .. import plots, processing
+    from .. import plots
 
-    window = fig.args.window_chirps or max(1, fig.radar.num_chirps // 4)
-    if not 1 <= window <= fig.radar.num_chirps:
-        raise UserError(f"--window-chirps {window}: must be in 1..{fig.radar.num_chirps} (chirps per Tx in a CPI)")
-    try:
-        spec = processing.micro_doppler_spectrogram(fig.cubes("micro-Doppler"), fig.radar, fig.times[fig.done],
-                                                    range_gate=fig.gate, window_chirps=window,
-                                                    clutter_removal=fig.clutter_removal)
-    except ValueError as err:
-        raise UserError(f"--range-gate/--window-chirps: {err}") from None
+    window = _window(fig)
+    spec = _spectrogram(fig, "micro-Doppler")
     truth = None if fig.truth_velocity is None else fig.truth_velocity[fig.done]
     ax = plots.plot_micro_doppler(spec, dynamic_range=fig.args.dynamic_range, truth=truth,
                                   truth_times=fig.times[fig.done], object_names=fig.shown,

@@ -389,45 +389,32 @@ def export_run(run_path, out_dir, format: str = "dca1000", board=None, scale: Ad
                frames=None, replace: bool = False, family: str | None = None) -> CaptureReport:
     """Export a run store (:func:`sionnafmcw.store.open_run`) as a capture directory.
 
-    Reads ``iq`` frame by frame (bounded memory), ``frame_time``, the truth variables and the
-    ``radar`` attribute; writes ``out_dir`` atomically (see :func:`write_capture` for ``board``,
-    ``scale``, ``family``). ``frames`` (indices; default all) must all be done in the store.
+    Reads the cubes frame by frame (bounded memory), the frame times, the truth and the radar
+    through the :class:`~sionnafmcw.store.Run` reader; writes ``out_dir`` atomically (see
+    :func:`write_capture` for ``board``, ``scale``, ``family``). ``frames`` (indices; default all)
+    must all be done in the store.
     """
     from ..store import open_run
 
     run = open_run(run_path)
-    ds = getattr(run, "dataset", run)
-    radar = run.radar if hasattr(run, "radar") else RadarConfig.from_dict(ds.attrs["radar"])
-    total = ds.sizes["frame"]
+    total = run.num_frames
     frames = np.arange(total) if frames is None else np.asarray(list(frames), dtype=int)
     if frames.size and (frames.min() < 0 or frames.max() >= total):
         raise CaptureError(f"{run_path}: frames must lie in 0..{total - 1}, got {frames.min()}..{frames.max()}")
-    done = np.asarray(ds["frame_done"].values, dtype=bool)
-    missing = frames[~done[frames]]
+    missing = frames[~run.done_mask[frames]]
     if missing.size:
         raise CaptureError(f"{run_path}: frames {missing[:10].tolist()}{'...' if missing.size > 10 else ''} are not "
                            "simulated yet; finish the run (simulate resumes it) or export only its done frames")
-    objects = [str(o) for o in ds["object"].values] if "object" in ds else []
-    truth = {"objects": objects, "frames": frames.tolist()}
-    for name, key in (("truth_position", "position"), ("truth_velocity", "velocity"),
-                      ("truth_radial_velocity", "radial_velocity")):
-        if name in ds:
-            truth[key] = np.asarray(ds[name].values)[frames]
-    frame_times = np.asarray(ds["frame_time"].values, dtype=float)[frames]
-    iq = ds["iq"]
-
-    def cubes():
-        for index in frames:
-            yield np.asarray(iq[int(index)].values)
-
-    return write_capture(out_dir, radar, cubes(), format=format, board=board, family=family, scale=scale,
-                         frame_times=frame_times, truth=truth, replace=replace,
-                         extra={"source_run": str(run_path), "run_attrs": _run_attrs(ds)})
-
-
-def _run_attrs(ds) -> dict:
+    truth = {"objects": list(run.objects), "frames": frames.tolist()}
+    if run.objects:
+        truth["position"] = np.stack([run.object_position(o) for o in run.objects], axis=1)[frames]
+        truth["velocity"] = np.stack([run.object_velocity(o) for o in run.objects], axis=1)[frames]
+        truth["radial_velocity"] = np.stack([run.truth(o) for o in run.objects], axis=1)[frames]
     keep = ("radar_pose", "engine", "scene", "seed", "noise", "leakage_db", "sionnafmcw_version")
-    return json.loads(json.dumps({k: ds.attrs[k] for k in keep if k in ds.attrs}, default=str))
+    run_attrs = json.loads(json.dumps({k: run.attrs[k] for k in keep if k in run.attrs}, default=str))
+    return write_capture(out_dir, run.radar, (run.cube(int(f)) for f in frames), format=format, board=board,
+                         family=family, scale=scale, frame_times=run.frame_times[frames], truth=truth,
+                         replace=replace, extra={"source_run": str(run_path), "run_attrs": run_attrs})
 
 
 __all__ = ["AdcScale", "CaptureError", "CaptureReport", "FAMILIES", "deinterleave", "export_run", "frame_bytes",
