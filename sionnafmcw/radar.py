@@ -380,6 +380,19 @@ class RadarConfig:
         return self.to_dict() == other.to_dict()
 
     # ------------------------------------------------------------------ presets
+    @classmethod
+    def from_ti_cfg(cls, path_or_text, board=None) -> "RadarConfig":
+        """The radar of a TI mmWave SDK / demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.read_ti_cfg`)."""
+        from .io.ti_cfg import read_ti_cfg
+
+        return read_ti_cfg(path_or_text, board=board)
+
+    def to_ti_cfg(self, board=None, **options) -> str:
+        """This radar as a TI mmWave SDK demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.write_ti_cfg`)."""
+        from .io.ti_cfg import write_ti_cfg
+
+        return write_ti_cfg(self, board=board, **options)
+
     @staticmethod
     def presets() -> list[str]:
         """Names accepted by :meth:`preset`."""

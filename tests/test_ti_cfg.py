@@ -222,3 +222,12 @@ def test_write_refuses_radars_no_board_has():
         write_ti_cfg(RadarConfig.preset("walk-77ghz"), board="awr1843boost")
     with pytest.raises(TiCfgError, match="unknown TI board 'awr9999'"):
         write_ti_cfg(RadarConfig.preset("ti-awr1843boost"), board="awr9999")
+
+
+@pytest.mark.parametrize("name", ["ti-awr1843boost", "ti-iwr6843isk", "ti-iwr1443boost"])
+def test_radarconfig_ti_cfg_methods_round_trip(name):
+    """``RadarConfig.to_ti_cfg`` / ``from_ti_cfg`` (the spelling of the issue) are the io functions."""
+    radar = RadarConfig.preset(name)
+    text = radar.to_ti_cfg()
+    assert text == write_ti_cfg(radar)
+    assert RadarConfig.from_ti_cfg(text) == radar
