@@ -152,8 +152,10 @@ def export_blend(blend_file, out, frames=None, python=None, blender=None, radar=
     velocity_step : central-difference half-width in frames (default 0.5)
     timeout : seconds before the export is abandoned
 
-    Raises :class:`BlenderExportError` with the exporter's message (e.g. which object has an
-    unmapped material) when it fails.
+    Raises
+    ------
+    BlenderExportError
+        With the exporter's message (e.g. which object has an unmapped material) when it fails.
     """
     blend_file = Path(blend_file)
     if not blend_file.is_file():

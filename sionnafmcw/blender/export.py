@@ -619,8 +619,15 @@ def export_animation(out, frame_start=None, frame_end=None, radar: str | None = 
     velocity_step : half-width :math:`h` of the central differences in frames, ``0 < h <= 1``
     log : callable taking a line of progress text (default: print to stdout)
 
-    Returns the path of the directory. Raises :class:`ExportError` with a message that names the
-    object, material or setting to fix.
+    Returns
+    -------
+    Path
+        The animation directory.
+
+    Raises
+    ------
+    ExportError
+        With a message that names the object, material or setting to fix.
     """
     if bpy is None:
         raise ExportError("export_animation runs inside Blender (bpy)")

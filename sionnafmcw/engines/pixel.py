@@ -387,6 +387,8 @@ class PixelEngine(Engine):
     track_kernels : bool
         Record Dr.Jit kernel launches per frame in :attr:`stats`.
 
+    Notes
+    -----
     :attr:`stats` figures: ``trace_seconds`` (the ray cast), ``num_hits`` (pixels that hit a
     surface), ``num_contributions`` (hit pixels with a non-zero echo).
     """

@@ -335,9 +335,16 @@ def read_dca1000(path, radar=None, board=None, family: str | None = None, num_fr
     num_frames : expected frame count; default: the sidecar's, else ``numFrames`` of the ``.cfg`` when not 0,
         else any whole number of frames
 
-    Returns complex64 ADC counts (I + jQ), tx in physical element order.
-    Raises :class:`CaptureError` with the expected and the actual sizes for a file that does not
-    hold whole frames of this radar or not the expected number of frames.
+    Returns
+    -------
+    ndarray
+        complex64 ADC counts (I + jQ) ``[frame, chirp, tx, rx, sample]``, tx in physical element order.
+
+    Raises
+    ------
+    CaptureError
+        With the expected and the actual sizes, for a file that does not hold whole frames of this
+        radar or not the expected number of frames.
     """
     path = Path(path)
     bin_path, cfg_path, sidecar = _capture_files(path)

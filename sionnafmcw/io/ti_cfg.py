@@ -410,6 +410,8 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
     ignored : list of str, optional
         Extra (non-RF) command lines to append, e.g. ``["guiMonitor -1 1 1 0 0 0 1"]``.
 
+    Notes
+    -----
     The chirps ``0..M-1`` fire the transmitters in ``radar.tx_order``; ``txOutPower`` is the
     back-off (dB) of ``radar.tx_power`` below the board preset's (an error unless a whole number of
     dB); ``txStartTime`` is TI's 1 us; the comments ``% sionnafmcw-board`` and ``% sionnafmcw-radar`` let

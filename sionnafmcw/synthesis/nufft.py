@@ -52,7 +52,7 @@ import numpy as np
 
 from .phase import PhasePolynomial
 
-#: finufft requested precision (relative to the sum of |strengths|).
+#: finufft requested precision (relative to the sum of the strengths' magnitudes).
 NUFFT_TOL = 1e-7
 #: Largest neglected Taylor term of the residual phase.
 TAYLOR_TOL = 1e-8
