@@ -91,6 +91,22 @@ def scatterer_phases(objects, triangle, barycentric, cells) -> np.ndarray:
     return (h >> np.uint64(11)).astype(np.float64) * (2.0 * np.pi / 2.0 ** 53)
 
 
+def shared_cells(samples: SurfaceSamples, cells) -> int:
+    """How many samples share their (object, triangle, cell) with another sample.
+
+    Such samples get the same phase and add coherently (the growth of issue 11); it must be 0
+    (``cells`` fine enough for the sample spacing). A cheap check for the engines (one ``np.unique``).
+    """
+    objects = samples.labels if samples.labels is not None else samples.object_id
+    q = np.broadcast_to(np.asarray(cells, dtype=np.int64), samples.triangle.shape)
+    cu = np.clip(np.floor(samples.barycentric[:, 0] * q), 0, q - 1).astype(np.int64)
+    cv = np.clip(np.floor(samples.barycentric[:, 1] * q), 0, q - 1).astype(np.int64)
+    _, obj = np.unique(np.asarray(objects), return_inverse=True)
+    keys = np.stack([obj.reshape(-1), samples.triangle, cu, cv], axis=1)
+    _, counts = np.unique(keys, axis=0, return_counts=True)
+    return int(np.sum(counts[counts > 1]))
+
+
 def sample_phases(samples: SurfaceSamples, cells) -> np.ndarray:
     """:func:`scatterer_phases` of :class:`SurfaceSamples` (object: ``labels`` if given, else ``object_id``)."""
     objects = samples.labels if samples.labels is not None else samples.object_id
@@ -140,4 +156,4 @@ def diffuse_echoes(samples: SurfaceSamples, radar, cells, position=(0.0, 0.0, 0.
 
 
 __all__ = ["cells_per_edge", "diffuse_echoes", "diffuse_gains", "lambertian_gains", "object_key",
-           "sample_phases", "scatterer_phases"]
+           "sample_phases", "scatterer_phases", "shared_cells"]

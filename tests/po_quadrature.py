@@ -2,7 +2,7 @@ r"""Independent reference: the near-field physical-optics integral by plain quad
 
 Written apart from :mod:`sionnafmcw.physical_optics` (it imports nothing from it): every lit
 triangle is split into :math:`s^2` congruent sub-triangles of edge at most ``max_edge``
-(default :math:`\lambda/8`), each integrated with the 7-point degree-5 Gauss rule
+(default :math:`\lambda/6`), each integrated with the 7-point degree-5 Gauss rule
 (Dunavant 1985, Table 1, n = 5), of
 
 .. math::

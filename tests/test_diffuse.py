@@ -5,7 +5,7 @@ import pytest
 
 import mesh_render
 from sionnafmcw.constants import SPEED_OF_LIGHT
-from sionnafmcw.diffuse import cells_per_edge, diffuse_echoes, lambertian_gains, scatterer_phases
+from sionnafmcw.diffuse import cells_per_edge, diffuse_echoes, lambertian_gains, scatterer_phases, shared_cells
 from sionnafmcw.echoes import Echoes
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.physical_optics import monostatic_rcs, render_resolution
@@ -85,6 +85,7 @@ def test_map_power_equals_incoherent_sum_whatever_the_sample_count():
             for distance in (3.0, 4.5, 6.0, 7.5):
                 step = render_resolution(1.0, distance, LAMBDA, samples_across=32) / factor   # ~3 cm, then 1.6 cm
                 samples, cells = spinning_plate(step, distance, realisation=realisation)
+                assert shared_cells(samples, cells) == 0
                 parts.append(diffuse_echoes(samples, RADAR, cells))
                 count += samples.num_samples
             echoes = Echoes.concatenate(parts)
@@ -106,6 +107,7 @@ def test_deterministic_phases_grow_6db_per_4x_samples():
         samples = mesh_render.render(v, f, ORIGIN, (4.0, 0, 0), 0.07, step / factor, scattering_coefficient=1.0)
         samples.velocity[:] = [1.0, 0, 0]
         echoes = diffuse_echoes(samples, RADAR, cells=1)
+        assert shared_cells(samples, 1) == samples.num_samples   # one phase per triangle: all coherent
         deterministic = Echoes(np.abs(echoes.a), echoes.tau, echoes.doppler)
         growth.append(map_power(deterministic) / np.sum(np.abs(echoes.a) ** 2))
     assert 4.5 < db(growth[1] / growth[0]) < 7.5

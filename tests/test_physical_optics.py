@@ -165,3 +165,17 @@ def test_resolution_rule_and_errors():
     with pytest.raises(PhysicalOpticsError, match="tx_gain"):
         po_gains(SurfaceSamples([[1.0, 0, 0]], [[1.0, 0, 0]], [1e-4]), np.zeros((2, 3)), np.zeros((1, 3)), LAMBDA,
                  tx_gain=np.ones((3, 1)))
+
+
+def test_large_plate_tends_to_the_mirror_image():
+    """Geometric-optics limit, which fixes the constant phase: a 1 m metal plate at 1 m returns the
+    image source of Sionna's specular path, h = Gamma lambda / (4 pi 2R) e^{-jk 2R}, Gamma = -1
+    (the plate's finite edges add Fresnel ripples of a few per cent: 0.5 dB, pi/16)."""
+    distance = 1.0
+    v, f = meshes.plate((distance, 0, 0), (1.0, 1.0), normal=(-1, 0, 0), subdiv=3)
+    samples = mesh_render.render(v, f, ORIGIN, (distance, 0, 0), 0.5, render_resolution(1.0, distance, LAMBDA))
+    a, tau, _ = po_gains(samples, ORIGIN[None], ORIGIN[None], LAMBDA)
+    h = channel(a[0, 0], tau[0, 0], RADAR.fc)
+    image = -LAMBDA / (4 * np.pi * 2 * distance) * np.exp(-2j * np.pi / LAMBDA * 2 * distance)
+    assert abs(db(abs(h) ** 2 / abs(image) ** 2)) < 0.5
+    assert abs(np.angle(h / image)) < np.pi / 16
