@@ -1,9 +1,11 @@
 """Fixed engine cases whose echoes are stored in ``tests/data/engine_reference.npz``.
 
-The reference was written by the code *before* the engine-family redesign (issue 10) with
-``python tests/engine_reference.py``; ``tests/test_engine_reference.py`` recomputes the same cases
-with today's code and asserts that every array is identical, bit for bit. Regenerate it only
-for a change that is meant to alter the echoes, and say so in the commit.
+The reference was first written by the code *before* the engine-family redesign (issue 10) and
+regenerated, with ``python tests/engine_reference.py``, when the path engine's echoes changed on
+purpose: issue 11 (one trace for the whole array, ``array_model="coherent"``, every element pair
+from the interaction points; coincident specular paths removed). ``tests/test_engine_reference.py``
+recomputes the same cases with today's code and asserts that every array is identical, bit for
+bit. Regenerate it only for a change that is meant to alter the echoes, and say so in the commit.
 
 Cases (small, deterministic):
 * ``walk``: two frames of the circle walk (a deforming body with per-vertex velocities, skin,
