@@ -9,12 +9,20 @@ killed writer leaves is a hidden sibling named ``.<name>.partial-<token>`` (or
 * :func:`atomic_directory` -- a context manager yielding the temporary directory to fill.
 * :func:`atomic_write_text` / :func:`atomic_write_bytes` -- one file through a temporary sibling.
 * :func:`sweep_leftovers` -- remove what killed writers left beside a target.
+* :class:`LockFile` -- one writer at a time for a path (``.<name>.lock`` beside it); a lock whose
+  process is gone (same host: its pid is dead; another host: not refreshed for
+  :data:`STALE_AFTER` seconds) is stale and taken over.
+* :func:`sweep_partial_files` -- remove the ``*.partial`` temporary files a killed writer left
+  inside a directory tree (Zarr writes each chunk as ``<chunk>.<token>.partial`` and renames it).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
+import socket
+import time
 import uuid
 from contextlib import contextmanager
 from pathlib import Path
@@ -131,4 +139,128 @@ def sweep_leftovers(path) -> list[Path]:
     return removed
 
 
-__all__ = ["atomic_directory", "atomic_write_bytes", "atomic_write_text", "leftovers", "sweep_leftovers"]
+def sweep_partial_files(root) -> list[Path]:
+    """Remove every ``*.partial`` file under the directory ``root`` (a killed writer's temporary files).
+
+    Call it only while holding the writer's lock of ``root``: a live writer's ``.partial`` is about
+    to be renamed into place.
+    """
+    removed = []
+    for dirpath, _dirs, files in os.walk(root):
+        for name in files:
+            if name.endswith(".partial"):
+                p = Path(dirpath) / name
+                _remove(p)
+                removed.append(p)
+    return removed
+
+
+#: Seconds after which a lock held from another host counts as stale unless its holder refreshed it.
+STALE_AFTER = 600.0
+
+
+class LockBusy(RuntimeError):
+    """The lock is held by a live process: ``holder`` is its ``{"host", "pid"}``."""
+
+    def __init__(self, path: Path, holder: dict):
+        where = "this machine" if holder.get("host") == socket.gethostname() else f"host {holder.get('host')}"
+        super().__init__(f"{path} is held by process {holder.get('pid')} on {where}")
+        self.path, self.holder = path, holder
+
+
+class LockFile:
+    """``.<name>.lock`` beside ``path``: one writer of ``path`` at a time.
+
+    The lock file holds ``{"host", "pid"}`` of its holder and is created with ``O_EXCL``. A lock of
+    this process is re-entrant. A lock is *stale* when its holder is gone: on this host, no process
+    has its pid; on another host, the file was not refreshed (:meth:`refresh`) for
+    :data:`STALE_AFTER` s. A stale lock is taken over. ``wait`` (s): how long :meth:`acquire` waits
+    for a live holder before raising :class:`LockBusy`.
+    """
+
+    def __init__(self, path, wait: float = 0.0, poll: float = 0.5):
+        path = Path(path)
+        self.target = path
+        self.path = path.parent / f".{path.name}.lock"
+        self.me = {"host": socket.gethostname(), "pid": os.getpid()}
+        self.wait, self.poll = float(wait), float(poll)
+        self.held = False
+        self.took_over: dict | None = None  # the stale holder this lock replaced
+
+    def holder(self) -> dict | None:
+        try:
+            return json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            return None
+
+    def _stale(self, other: dict | None) -> bool:
+        if not isinstance(other, dict):  # half-written by a killed process: stale once it is old
+            try:
+                return time.time() - self.path.stat().st_mtime > 5.0
+            except FileNotFoundError:
+                return True
+        if other.get("host") == self.me["host"]:
+            return not _alive(other.get("pid"))
+        try:
+            return time.time() - self.path.stat().st_mtime > STALE_AFTER
+        except FileNotFoundError:
+            return True
+
+    def acquire(self) -> "LockFile":
+        deadline = time.monotonic() + self.wait
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        while True:
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY)
+            except FileExistsError:
+                other = self.holder()
+                if other == self.me:
+                    self.held = True
+                    return self
+                if self._stale(other):
+                    self.took_over = other or {}
+                    self.path.unlink(missing_ok=True)
+                    continue
+                if time.monotonic() >= deadline:
+                    raise LockBusy(self.target, other) from None
+                time.sleep(self.poll)
+                continue
+            with os.fdopen(fd, "w") as fh:
+                fh.write(json.dumps(self.me))
+            self.held = True
+            return self
+
+    def refresh(self) -> None:
+        """Touch the lock file (a holder on another host shows it is alive)."""
+        if self.held:
+            try:
+                os.utime(self.path)
+            except OSError:
+                pass
+
+    def release(self) -> None:
+        if self.held and self.holder() == self.me:
+            self.path.unlink(missing_ok=True)
+        self.held = False
+
+    def __enter__(self):
+        return self.acquire()
+
+    def __exit__(self, *exc):
+        self.release()
+
+
+def _alive(pid) -> bool:
+    if not isinstance(pid, int) or pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+__all__ = ["LockBusy", "LockFile", "STALE_AFTER", "atomic_directory", "atomic_write_bytes", "atomic_write_text",
+           "leftovers", "sweep_leftovers", "sweep_partial_files"]

@@ -6,7 +6,9 @@ IF cube with noise from a generator seeded by ``(seed, n)`` (so a resumed run, o
 frame subset, gives the same cube for the same frame), and the store receives the cube and the
 ground truth of every moving object: position (area-weighted centroid of its mesh), velocity
 (the manifest's) and radial velocity :math:`\\dot R` from the radar's phase centre (the centroid
-of the virtual array, positive receding). Memory is bounded by one frame.
+of the virtual array, positive receding). Memory is bounded by one frame, and checked against the memory available before anything is
+written. The run is crash-safe: killed or interrupted at any instant, the store is valid and the
+same call resumes it (see :func:`simulate`).
 """
 
 from __future__ import annotations
@@ -19,7 +21,8 @@ from . import __version__, engines
 from .engines import Engine
 from .geometry import radial_velocity, world_phase_centre
 from .radar import RadarConfig
-from .store import RunStore, open_run
+from .interrupts import Interrupted, as_interrupted, deferred, handling_signals, is_interrupt, received
+from .store import RunStore, check_run, open_run
 from .synthesis import synthesize
 
 
@@ -36,21 +39,137 @@ def _engine(engine, engine_options: dict | None) -> Engine:
     return engine
 
 
+class SimulationError(ValueError):
+    """A :func:`simulate` call refused before anything is written (bad argument, radar that cannot
+    see the scene, too little memory); the message names the parameter and what would fix it."""
+
+
+class SimulationInterrupted(Interrupted):
+    """:func:`simulate` stopped by SIGINT / SIGTERM; the store is valid and resumes.
+
+    ``done``: frames of the selection done in the store, ``total``: frames selected, ``path``: the store.
+    """
+
+    def __init__(self, signum: int, done: int, total: int, path):
+        super().__init__(signum, f"interrupted after {done} of {total} frames; simulate again with the same "
+                                 "arguments to resume")
+        self.done, self.total, self.path = int(done), int(total), Path(path)
+
+
 def _frame_indices(frames, num_frames: int) -> list[int]:
+    span = f"the animation's frames 0..{num_frames - 1}"
     if frames is None:
         return list(range(num_frames))
     if isinstance(frames, slice):
-        return list(range(num_frames))[frames]
-    indices = [int(f) for f in frames]
+        indices = list(range(num_frames))[frames]
+        if not indices:
+            raise SimulationError(f"simulate: frames={frames!r} selects no frame of {span}; choose a slice inside it")
+        return indices
+    try:
+        indices = [int(f) for f in frames]
+    except (TypeError, ValueError):
+        raise SimulationError(f"simulate: frames={frames!r} must be a slice or integer frame indices") from None
+    if not indices:
+        raise SimulationError(f"simulate: frames={frames!r} selects no frame; give at least one of {span}")
     bad = [f for f in indices if not 0 <= f < num_frames]
     if bad:
-        raise ValueError(f"simulate: frames {bad} are outside the animation's 0..{num_frames - 1}")
+        raise SimulationError(f"simulate: frames {bad} are outside {span}")
     return indices
+
+
+def _check_arguments(seed, noise, leakage_db) -> None:
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise SimulationError(f"simulate: seed={seed!r} must be an integer >= 0 (numpy's SeedSequence takes no "
+                              "negative entropy)")
+    if not isinstance(noise, (bool, np.bool_)):
+        raise SimulationError(f"simulate: noise={noise!r} must be True or False")
+    if leakage_db is not None:
+        try:
+            value = float(leakage_db)
+        except (TypeError, ValueError):
+            raise SimulationError(f"simulate: leakage_db={leakage_db!r} must be a number (dB) or None") from None
+        if not np.isfinite(value):
+            raise SimulationError(f"simulate: leakage_db={leakage_db!r} must be a finite level in dB (or None for "
+                                  "no leakage)")
+
+
+def _check_ranges(animation, radar, pose, indices, names) -> dict:
+    r"""Truth positions ``{frame: [object, 3]}`` of the selected frames, after checking that every moving
+    object lies inside the radar's unambiguous range :math:`R_{max} = cF_s/(2\mu)` from the phase centre
+    (beyond it the beat frequency exceeds the sample rate and the echo aliases to a wrong range)."""
+    positions = {}
+    if not names:
+        return positions
+    centre = world_phase_centre(radar, pose.position, pose.orientation)
+    worst = (0.0, None, None)
+    for f in indices:
+        by_name = animation.object_positions(f, names)
+        positions[f] = np.array([by_name[n] for n in names])
+        ranges = np.linalg.norm(positions[f] - centre, axis=-1)
+        k = int(np.argmax(ranges))
+        if ranges[k] > worst[0]:
+            worst = (float(ranges[k]), names[k], f)
+    if worst[0] > radar.max_range:
+        r, name, f = worst
+        raise SimulationError(
+            f"simulate: moving object {name!r} is {r:.2f} m from the radar in frame {f}, beyond radar "
+            f"{radar.name!r}'s maximum range {radar.max_range:.2f} m (c fs / (2 slope)); its echo would alias to a "
+            f"wrong range: raise the radar's sample rate fs or lower its slope (or move the radar closer)")
+    return positions
+
+
+#: Bytes per cube sample while one frame is synthesised and written: the complex128 sum (16), the
+#: complex128 noise (16), the complex64 cube (8) and Zarr's encoded copy of it (8).
+SYNTHESIS_BYTES_PER_SAMPLE = 48
+
+
+def available_memory() -> int:
+    """Bytes of memory this process can still use: the system's available memory, capped by the
+    cgroup (container) limit minus its usage when there is one."""
+    import psutil
+
+    avail = int(psutil.virtual_memory().available)
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        used = int(Path("/sys/fs/cgroup/memory.current").read_text().strip())
+        if limit != "max":
+            avail = min(avail, int(limit) - used)
+    except (OSError, ValueError):
+        pass
+    return max(avail, 0)
+
+
+def frame_memory(radar, engine_obj=None) -> dict:
+    r"""Estimated peak memory (bytes) of one frame: ``{"cube", "synthesis", "engine", "total"}``.
+
+    The cube holds :math:`N = L M N_{rx} N_s` samples; synthesis and the store write need about
+    :data:`SYNTHESIS_BYTES_PER_SAMPLE` bytes per sample (of which 8 are the complex64 cube itself).
+    ``engine``: the engine's own estimate, ``engine.memory_estimate(radar)`` when it has one, else 0.
+    """
+    n = int(radar.num_chirps) * int(radar.num_tx) * int(radar.num_rx) * int(radar.num_samples)
+    estimate = getattr(engine_obj, "memory_estimate", None)
+    engine_bytes = int(estimate(radar)) if callable(estimate) else 0
+    synthesis = SYNTHESIS_BYTES_PER_SAMPLE * n
+    return {"samples": n, "cube": 8 * n, "synthesis": synthesis, "engine": engine_bytes,
+            "total": synthesis + engine_bytes}
+
+
+def _check_memory(radar, engine_obj) -> None:
+    need = frame_memory(radar, engine_obj)
+    have = available_memory()
+    if need["total"] > have:
+        gib = 2.0 ** 30
+        engine_part = f", engine {need['engine'] / gib:.2f} GiB" if need["engine"] else ""
+        raise SimulationError(
+            f"simulate: one frame needs about {need['total'] / gib:.2f} GiB (cube of {need['samples']:.3g} samples = "
+            f"{radar.num_chirps} chirps x {radar.num_tx} Tx x {radar.num_rx} Rx x {radar.num_samples} samples, "
+            f"{need['cube'] / gib:.2f} GiB as complex64; synthesis {need['synthesis'] / gib:.2f} GiB{engine_part}) "
+            f"but {have / gib:.2f} GiB of memory is available; lower the radar's num_samples or num_chirps")
 
 
 def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progress=True,
              radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None,
-             leakage_db: float | None = None):
+             leakage_db: float | None = None, repair: bool = False, wait: float = 0.0):
     """Simulate ``frames`` of ``animation`` and write the run store ``out``; returns it as a :class:`~sionnafmcw.store.Run`.
 
     Parameters
@@ -62,54 +181,91 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     out : path of the Zarr store; an existing store with the same settings is resumed
     frames : iterable of frame indices or a slice (default: all); the store always spans all frames
     radar_pose : RadarPose overriding the animation's
-    seed : noise seed; frame ``n`` uses ``numpy.random.default_rng([seed, n])``
+    seed : noise seed (integer >= 0); frame ``n`` uses ``numpy.random.default_rng([seed, n])``
     noise : add receiver thermal noise
     engine_options : keyword options of the engine when ``engine`` is a name (:func:`sionnafmcw.engines.options`)
     leakage_db : direct Tx-Rx coupling (dB) added to every frame (:meth:`Echoes.leakage`); None: none
+    repair : before resuming, read every done frame of an existing store back and mark the unreadable
+        ones for recomputation (:func:`sionnafmcw.store.check_run`)
+    wait : seconds to wait for another live process writing ``out`` to finish (then resume what it left)
+
+    Crash safety. Everything is checked before anything is written: the arguments, the frame
+    selection, the materials at the carrier, every moving object inside the radar's maximum range
+    (:class:`SimulationError` otherwise) and the memory of one frame (:func:`frame_memory`) against
+    :func:`available_memory`. The store appears at ``out`` only once complete
+    (:class:`~sionnafmcw.store.RunStore`), frames are marked done after their data, and SIGINT /
+    SIGTERM (in the main thread) stop the run between writes with :class:`SimulationInterrupted`.
     """
+    with handling_signals():
+        return _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise,
+                         engine_options, leakage_db, repair, wait)
+
+
+def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise, engine_options,
+              leakage_db, repair, wait):
     from .animation import Animation, load_animation
 
+    _check_arguments(seed, noise, leakage_db)
     if not isinstance(animation, Animation):
         animation = load_animation(animation)
     radar = RadarConfig.resolve(radar)
     radar.validate(frame_period=animation.frame_period)
     pose = radar_pose if radar_pose is not None else animation.radar_pose
     if pose is None:
-        raise ValueError(f"simulate: {animation.path} has no radar pose in animation.json; pass radar_pose=")
+        raise SimulationError(f"simulate: {animation.path} has no radar pose in animation.json; pass radar_pose=")
+    indices = _frame_indices(frames, animation.num_frames)
     engine_obj = _engine(engine, engine_options)
     settings = engine_obj.settings()
-    indices = _frame_indices(frames, animation.num_frames)
-
+    _check_memory(radar, engine_obj)
+    animation.check_frequency(radar.fc)
     names = animation.object_names
-    store = RunStore.open(
-        out, radar, animation.num_frames, names,
-        attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
-               "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
-               "leakage_db": leakage_db,
-               "sionnafmcw_version": __version__},
-    )
-    done = store.done()
-    todo = [f for f in indices if not done[f]]
-    centre = world_phase_centre(radar, pose.position, pose.orientation)
+    positions_at = _check_ranges(animation, radar, pose, indices, names)
 
-    iterator = todo
-    if progress and todo:
-        from tqdm.auto import tqdm
+    out = Path(out)
+    if repair and out.exists():
+        check_run(out, repair=True)
+    with deferred():  # a signal during creation: the half-built store is removed, then the interrupt
+        store = RunStore.open(
+            out, radar, animation.num_frames, names,
+            attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
+                   "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
+                   "leakage_db": leakage_db,
+                   "sionnafmcw_version": __version__},
+            wait=wait,
+        )
+    bar = None
+    try:
+        done = store.done()
+        todo = [f for f in indices if not done[f]]
+        centre = world_phase_centre(radar, pose.position, pose.orientation)
+        if progress and todo:
+            from tqdm.auto import tqdm
 
-        iterator = tqdm(todo, desc=f"simulate {Path(out).name}", unit="frame")
-    for f in iterator:
-        echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
-        rng = np.random.default_rng([int(seed), int(f)])
-        cube = synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng,
-                          leakage_db=leakage_db)
-        if names:
-            positions_by_name = animation.object_positions(f, names)
-            positions = np.array([positions_by_name[n] for n in names])
-            velocities = np.array([animation.object_velocity(f, n) for n in names])
-            radial = radial_velocity(positions, velocities, centre)
-        else:
-            positions = velocities = radial = None
-        store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial)
+            bar = tqdm(total=len(todo), desc=f"simulate {out.name}", unit="frame")
+        for f in todo:
+            echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
+            rng = np.random.default_rng([int(seed), int(f)])
+            cube = synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng,
+                              leakage_db=leakage_db)
+            if names:
+                positions = positions_at[f]
+                velocities = np.array([animation.object_velocity(f, n) for n in names])
+                radial = radial_velocity(positions, velocities, centre)
+            else:
+                positions = velocities = radial = None
+            store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial)
+            if bar is not None:
+                bar.update(1)
+    except BaseException as exc:
+        if is_interrupt(exc) or received() is not None:
+            signum = as_interrupted(exc).signum
+            done = store.done()
+            raise SimulationInterrupted(signum, int(sum(done[f] for f in indices)), len(indices), out) from None
+        raise
+    finally:
+        if bar is not None:
+            bar.close()
+        store.close()
     return open_run(out)
 
 

@@ -92,43 +92,63 @@ def _json_safe(value):
 
 
 # ===================================================================================== writer
-class RunStore:
-    """Writer of one run store (see the module docstring)."""
+#: Attributes every complete store has (besides ``format``); a directory without them was cut off
+#: while being created by a version that did not create stores atomically.
+REQUIRED_ATTRS = ("radar", "radar_pose", "engine", "seed", "noise")
+#: The arrays of a frame, in the order :meth:`RunStore.write_frame` writes them (``frame_done`` last).
+FRAME_ARRAYS = ("iq", "frame_time", "truth_position", "truth_velocity", "truth_radial_velocity")
 
-    def __init__(self, group: zarr.Group, path: Path):
-        self.group = group
-        self.path = path
 
-    # ------------------------------------------------------------------ create / resume
-    @classmethod
-    def open(cls, path, radar, num_frames: int, object_names: list[str], attrs: dict) -> "RunStore":
-        """Create the store, or reopen it for resuming when its attributes equal ``attrs``."""
-        path = Path(path)
-        attrs = _json_safe({"format": FORMAT, **attrs})
-        if path.exists():
-            try:
-                group = zarr.open_group(str(path), mode="r+", zarr_format=3)
-            except Exception as exc:  # not a Zarr group at all
-                raise RunStoreError(f"{path} exists and is not a run store ({exc}); "
-                                    "write the run to another path") from exc
-            old = dict(group.attrs)
-            if old.get("format") != FORMAT:
-                raise RunStoreError(f"{path} exists and is not a sionnafmcw run store; write the run to another path")
-            for key, value in attrs.items():
-                if key == "sionnafmcw_version":
-                    continue
-                if old.get(key) != value:
-                    raise RunStoreError(
-                        f"{path} was written with a different {key!r}; resume only with the same settings, "
-                        "or write to a new path (or delete the old store)"
-                    )
-            shape = group["iq"].shape
-            expected = (num_frames, radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples)
-            if shape != expected:
-                raise RunStoreError(f"{path}: iq has shape {shape}, this run needs {expected}")
-            return cls(group, path)
+class RunStoreBusy(RunStoreError):
+    """Another live process is writing the store (its lock is held)."""
 
-        group = zarr.open_group(str(path), mode="w-", zarr_format=3)
+
+class CorruptFrameError(RunStoreError):
+    """A done frame whose chunks cannot be read (``frame``: its index, ``path``: the store)."""
+
+    def __init__(self, path, frame: int, reason: str):
+        self.path, self.frame, self.reason = Path(path), int(frame), reason
+        super().__init__(f"{path}: frame {frame} is marked done but cannot be read ({reason}); "
+                         "check_run(path) marks it for recomputation and simulating again with the same "
+                         "settings rewrites it")
+
+
+def _zarr_metadata(path: Path) -> dict | None:
+    try:
+        return json.loads((path / "zarr.json").read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def _creation_leftover(path: Path) -> bool:
+    """True for a directory that a killed, non-atomic store creation left: a Zarr store of this
+    layout (or the start of one) whose attributes are incomplete and that has no frame done."""
+    if not path.is_dir():
+        return False
+    meta = _zarr_metadata(path)
+    attrs = (meta or {}).get("attributes") or {}
+    if meta is not None and attrs.get("format") == FORMAT and all(k in attrs for k in REQUIRED_ATTRS):
+        return False  # complete
+    if meta is not None and attrs.get("format") not in (None, FORMAT):
+        return False  # some other store
+    names = {p.name for p in path.iterdir()}
+    if not names <= {"zarr.json", *FRAME_ARRAYS, "frame_done", "object"}:
+        return False  # holds something that is not ours
+    try:
+        done = zarr.open_array(str(path / "frame_done"), mode="r", zarr_format=3)[:]
+    except Exception:  # noqa: BLE001 - not created yet: nothing done
+        return True
+    return not np.any(done)
+
+
+def _create(path: Path, radar, num_frames: int, object_names: list[str], attrs: dict) -> None:
+    """Build the store in a hidden sibling of ``path`` and rename it into place when complete
+    (:func:`sionnafmcw.fs.atomic_directory`): metadata, arrays and every attribute in one write."""
+    from . import _faults
+    from .fs import atomic_directory
+
+    with atomic_directory(path) as tmp:
+        group = zarr.create_group(str(tmp), zarr_format=3, attributes=attrs)
         n_obj = len(object_names)
         cube = (radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples)
         group.create_array("iq", shape=(num_frames, *cube), chunks=(1, *cube), dtype="complex64",
@@ -145,11 +165,106 @@ class RunStore:
         objects = group.create_array("object", shape=(n_obj,), dtype=str, dimension_names=["object"])
         if n_obj:
             objects[:] = np.array(object_names, dtype=str)
-        group.attrs.update(attrs)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # consolidated metadata is not in the v3 spec yet
-            zarr.consolidate_metadata(str(path))
-        return cls(group, path)
+            zarr.consolidate_metadata(str(tmp))
+        _faults.point("store-created", store=path)
+
+
+class RunStore:
+    """Writer of one run store (see the module docstring).
+
+    Crash safety: a new store is built beside its path and renamed into place when complete, so a
+    store at its path always has all its attributes and arrays; one writer at a time holds the
+    lock ``.<name>.lock`` beside it (:class:`sionnafmcw.fs.LockFile`, released by :meth:`close`,
+    stale once its process is gone); opening sweeps what killed writers left (hidden temporary
+    stores beside it, ``*.partial`` chunk files inside it) and never touches a frame marked done.
+    """
+
+    def __init__(self, group: zarr.Group, path: Path, lock=None):
+        self.group = group
+        self.path = path
+        self.lock = lock
+        self.created = False  # this call created the store
+
+    # ------------------------------------------------------------------ create / resume
+    @classmethod
+    def open(cls, path, radar, num_frames: int, object_names: list[str], attrs: dict,
+             wait: float = 0.0) -> "RunStore":
+        """Create the store, or reopen it for resuming when its attributes equal ``attrs``.
+
+        ``wait`` (s): how long to wait for another live writer of the store to finish
+        (:class:`RunStoreBusy` after that).
+        """
+        from .fs import LockBusy, LockFile, sweep_leftovers
+
+        path = Path(path)
+        attrs = _json_safe({"format": FORMAT, **attrs})
+        lock = LockFile(path, wait=wait)
+        try:
+            lock.acquire()
+        except LockBusy as exc:
+            raise RunStoreBusy(f"{exc}, writing it; wait for that process to finish (or stop it), or write "
+                               "to another path") from None
+        try:
+            sweep_leftovers(path)  # temporary stores of killed creations
+            if _creation_leftover(path):
+                import shutil
+
+                shutil.rmtree(path)
+            if path.exists() and path.is_dir() and not any(path.iterdir()):
+                path.rmdir()
+            if not path.exists():
+                _create(path, radar, num_frames, object_names, attrs)
+                store = cls(zarr.open_group(str(path), mode="r+", zarr_format=3), path, lock)
+                store.created = True
+                return store
+            return cls(cls._resume(path, radar, num_frames, attrs), path, lock)
+        except BaseException:
+            lock.release()
+            raise
+
+    @staticmethod
+    def _resume(path: Path, radar, num_frames: int, attrs: dict) -> zarr.Group:
+        from .fs import sweep_partial_files
+
+        try:
+            group = zarr.open_group(str(path), mode="r+", zarr_format=3)
+        except Exception as exc:  # not a Zarr group at all
+            raise RunStoreError(f"{path} exists and is not a run store ({exc}); "
+                                "write the run to another path") from exc
+        old = dict(group.attrs)
+        if old.get("format") != FORMAT:
+            raise RunStoreError(f"{path} exists and is not a sionnafmcw run store; write the run to another path")
+        for key, value in attrs.items():
+            if key == "sionnafmcw_version":
+                continue
+            if old.get(key) != value:
+                raise RunStoreError(
+                    f"{path} was written with a different {key!r}; resume only with the same settings, "
+                    "or write to a new path (or delete the old store)"
+                )
+        shape = group["iq"].shape
+        expected = (num_frames, radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples)
+        if shape != expected:
+            raise RunStoreError(f"{path}: iq has shape {shape}, this run needs {expected}")
+        sweep_partial_files(path)  # chunk writes cut off by a kill (never a finished chunk)
+        if "consolidated_metadata" not in (_zarr_metadata(path) or {}):
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                zarr.consolidate_metadata(str(path))
+        return group
+
+    def close(self) -> None:
+        """Release the store's lock (the store stays resumable)."""
+        if self.lock is not None:
+            self.lock.release()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
     # ------------------------------------------------------------------ frames
     def done(self) -> np.ndarray:
@@ -158,15 +273,83 @@ class RunStore:
 
     def write_frame(self, index: int, iq: np.ndarray, time: float, positions, velocities,
                     radial_velocities) -> None:
-        """Write every array of frame ``index``, then mark it done (last)."""
+        """Write every array of frame ``index``, then mark it done (last).
+
+        Signals are held during the writes (:func:`sionnafmcw.interrupts.deferred`): Ctrl-C never
+        cuts a chunk write in half; a SIGKILL leaves at most a ``*.partial`` file (swept by the next
+        :meth:`open`) and the frame not marked done.
+        """
+        from . import _faults
+        from .interrupts import deferred
+
         g = self.group
-        g["iq"][index] = iq.astype(np.complex64, copy=False)
-        g["frame_time"][index] = time
-        if g["truth_position"].shape[1]:
-            g["truth_position"][index] = positions
-            g["truth_velocity"][index] = velocities
-            g["truth_radial_velocity"][index] = radial_velocities
-        g["frame_done"][index] = True
+        with deferred():
+            g["iq"][index] = iq.astype(np.complex64, copy=False)
+            g["frame_time"][index] = time
+            if g["truth_position"].shape[1]:
+                g["truth_position"][index] = positions
+                g["truth_velocity"][index] = velocities
+                g["truth_radial_velocity"][index] = radial_velocities
+            _faults.point("chunk-written", store=self.path, frame=index)
+            g["frame_done"][index] = True
+            _faults.point("frame-done", store=self.path, frame=index)
+        if self.lock is not None:
+            self.lock.refresh()
+
+    def mark_not_done(self, frames) -> None:
+        """Clear the done flag of ``frames`` (their data is rewritten by the next resume)."""
+        from .interrupts import deferred
+
+        with deferred():
+            for f in frames:
+                self.group["frame_done"][int(f)] = False
+
+
+# ===================================================================================== checking
+def check_run(path, repair: bool = True) -> dict:
+    """Read every array of every done frame of the store ``path``; mark unreadable frames not done.
+
+    Returns ``{"path", "num_frames", "done" (frames done before), "corrupt" ({frame: reason}),
+    "repaired" (bool), "partial_files" (removed)}``. With ``repair`` the corrupt frames get their
+    done flag cleared (holding the store's lock), so that simulating again with the same settings
+    recomputes exactly them, and the ``*.partial`` files of killed writes are removed.
+    """
+    from .fs import LockBusy, LockFile, sweep_partial_files
+
+    run = open_run(path)
+    group = run._group
+    try:
+        done = run.done_frames
+    except Exception as exc:  # noqa: BLE001 - frame_done itself unreadable
+        raise RunStoreError(f"{run.path}: the done flags (frame_done) cannot be read ({exc}); the store cannot "
+                            "be repaired: simulate into a new path") from exc
+    corrupt = {}
+    for f in done:
+        for name in FRAME_ARRAYS:
+            if name != "iq" and group[name].ndim > 1 and group[name].shape[1] == 0:
+                continue
+            try:
+                np.asarray(group[name][int(f)])
+            except Exception as exc:  # noqa: BLE001 - any decode or I/O failure
+                corrupt[int(f)] = f"{name}: {type(exc).__name__}: {' '.join(str(exc).split())[:120]}"
+                break
+    report = {"path": run.path, "num_frames": run.num_frames, "done": done, "corrupt": corrupt,
+              "repaired": False, "partial_files": []}
+    if repair:
+        lock = LockFile(run.path)
+        try:
+            lock.acquire()
+        except LockBusy as exc:
+            raise RunStoreBusy(f"{exc}, writing it; repair it once that process has finished") from None
+        try:
+            report["partial_files"] = sweep_partial_files(run.path)
+            if corrupt:
+                writer = RunStore(zarr.open_group(str(run.path), mode="r+", zarr_format=3), run.path)
+                writer.mark_not_done(sorted(corrupt))
+                report["repaired"] = True
+        finally:
+            lock.release()
+    return report
 
 
 # ===================================================================================== truth maths
@@ -308,7 +491,7 @@ class Run:
     @property
     def frame_times(self) -> np.ndarray:
         """CPI start times :math:`t_n` ``[frame]`` (s); NaN for frames not done."""
-        return np.where(self.done_mask, np.asarray(self._group["frame_time"][:], float), np.nan)
+        return np.where(self.done_mask, np.asarray(self._read_all("frame_time"), float), np.nan)
 
     def _check_done(self, frames) -> None:
         done = self.done_mask
@@ -321,11 +504,28 @@ class Run:
             raise RunStoreError(f"{self.path}: frame {int(missing[0])} is not written yet "
                                 f"({done.sum()} of {done.size} frames done)")
 
+    def _read(self, name: str, frame: int) -> np.ndarray:
+        """Array ``name`` of one done frame; an unreadable chunk is a :class:`CorruptFrameError`."""
+        try:
+            return np.asarray(self._group[name][int(frame)])
+        except Exception as exc:  # noqa: BLE001 - decompression, truncated file, I/O
+            raise CorruptFrameError(self.path, frame, f"{name}: {type(exc).__name__}: "
+                                    f"{' '.join(str(exc).split())[:160]}") from None
+
+    def _read_all(self, name: str) -> np.ndarray:
+        """Array ``name`` over all frames; an unreadable chunk is a :class:`CorruptFrameError` naming its frame."""
+        try:
+            return np.asarray(self._group[name][:])
+        except Exception:  # noqa: BLE001 - find the frame
+            for f in range(self._group[name].shape[0]):
+                self._read(name, f)
+            raise
+
     def cube(self, frame: int) -> np.ndarray:
         """Beat cube of one frame, complex64 ``[chirp, tx, rx, sample]`` (Tx in physical order)."""
         frame = int(frame)
         self._check_done(frame)
-        return np.asarray(self._group["iq"][frame])
+        return self._read("iq", frame)
 
     def cubes(self, frames) -> np.ndarray:
         """Beat cubes ``[frame, chirp, tx, rx, sample]`` of a ``slice`` or a list of frames (all done)."""
@@ -333,9 +533,7 @@ class Run:
             frames = np.arange(self.num_frames)[frames]
         frames = np.asarray(frames, dtype=int).reshape(-1)
         self._check_done(frames)
-        if frames.size and np.all(np.diff(frames) == 1):
-            return np.asarray(self._group["iq"][int(frames[0]):int(frames[-1]) + 1])
-        return np.stack([np.asarray(self._group["iq"][int(f)]) for f in frames]) if frames.size else \
+        return np.stack([self._read("iq", int(f)) for f in frames]) if frames.size else \
             np.zeros((0, *self._group["iq"].shape[1:]), np.complex64)
 
     # ------------------------------------------------------------------ truth
@@ -348,17 +546,17 @@ class Run:
     def truth(self, obj: str) -> np.ndarray:
         """Radial velocity :math:`\\dot R` of ``obj`` at the CPI starts ``[frame]`` (m/s, + receding, from the phase centre)."""
         k = self._object_index(obj)
-        return np.where(self.done_mask, np.asarray(self._group["truth_radial_velocity"][:, k], float), np.nan)
+        return np.where(self.done_mask, np.asarray(self._read_all("truth_radial_velocity")[:, k], float), np.nan)
 
     def object_position(self, obj: str) -> np.ndarray:
         """World position of ``obj`` at the CPI starts ``[frame, 3]`` (m); NaN for frames not done."""
         k = self._object_index(obj)
-        return np.where(self.done_mask[:, None], np.asarray(self._group["truth_position"][:, k, :], float), np.nan)
+        return np.where(self.done_mask[:, None], np.asarray(self._read_all("truth_position")[:, k, :], float), np.nan)
 
     def object_velocity(self, obj: str) -> np.ndarray:
         """World velocity of ``obj`` at the CPI starts ``[frame, 3]`` (m/s); NaN for frames not done."""
         k = self._object_index(obj)
-        return np.where(self.done_mask[:, None], np.asarray(self._group["truth_velocity"][:, k, :], float), np.nan)
+        return np.where(self.done_mask[:, None], np.asarray(self._read_all("truth_velocity")[:, k, :], float), np.nan)
 
     def object_range(self, obj: str) -> np.ndarray:
         r"""Range of ``obj`` from the phase centre at the CPI starts, :math:`\lVert\mathbf p_n - \mathbf c_w\rVert` ``[frame]`` (m)."""
@@ -391,7 +589,7 @@ class Run:
         self._check_done(frame)
         if not self.objects:
             return np.zeros(0), np.zeros(0)
-        positions = np.asarray(self._group["truth_position"][frame], float)
+        positions = np.asarray(self._read("truth_position", frame), float)
         local = world_to_radar(positions, self.pose.position, self.pose.orientation) - self.radar.phase_centre
         return np.linalg.norm(local, axis=-1), np.arctan2(local[:, 1], local[:, 0])
 

@@ -11,6 +11,7 @@
     sionnafmcw export RUN --out DIR [--format dca1000|npz] [--board B]   a TI raw capture of a run
     sionnafmcw validate NAME [ARGS ...]                          a validation experiment
     sionnafmcw dataset SPEC --out DIR [--scheduler ADDRESS | --workers N]
+    sionnafmcw check RUN.zarr                                    verify every done frame; mark unreadable ones
 
 Modules: :mod:`.presets`, :mod:`.scene`, :mod:`.simulate`, :mod:`.plot` (figure kinds as a
 table), :mod:`.export`, :mod:`.validate`, :mod:`.dataset`; :mod:`.common` holds the shared parsers and loaders.
@@ -19,7 +20,8 @@ Each has ``add_parser(add)`` and the function(s) it runs.
 Global options: ``--quiet`` (no progress bars), ``--version``. A user error (a missing file, an
 unknown preset, scene or parameter, bad ``--frames``, bad JSON, a CPI longer than the frame
 period, ...) prints one line ``sionnafmcw: error: ...`` on stderr and exits with status 2; an
-interrupted run exits with 130 (``simulate`` then resumes where it stopped). The library's errors
+interrupted run exits with 130 (143 for SIGTERM) after one line (``simulate`` and ``dataset`` then
+resume where they stopped). The library's errors
 speak the library's language; the command line adds which option to change or which command to
 run. Heavy modules (Sionna RT, Zarr, the scene builders) are imported inside the subcommands.
 """
@@ -68,22 +70,55 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
-    """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status."""
+    """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
+
+    SIGINT and SIGTERM end any command with one line on stderr and status 130 / 143
+    (:mod:`sionnafmcw.interrupts`); ``simulate`` and ``dataset`` say how far they got.
+    """
+    from ..interrupts import handling_signals
+
     parser = build_parser()
-    try:
+    with handling_signals():
         try:
-            args = parser.parse_args(argv)
-        except SystemExit as exc:  # --help, --version
-            return int(exc.code or 0) if not isinstance(exc.code, str) else 1
-        if not hasattr(args, "quiet"):
-            args.quiet = False
-        return int(args.func(args) or 0)
-    except KeyboardInterrupt:
-        print(f"{PROG}: interrupted (a simulate run resumes where it stopped when started again)", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except user_error_types() as err:
-        print(f"{PROG}: error: {one_line(err)}", file=sys.stderr)
-        return EXIT_USER_ERROR
+            try:
+                args = parser.parse_args(argv)
+            except SystemExit as exc:  # --help, --version
+                return int(exc.code or 0) if not isinstance(exc.code, str) else 1
+            if not hasattr(args, "quiet"):
+                args.quiet = False
+            return int(args.func(args) or 0)
+        except KeyboardInterrupt as exc:
+            return interrupted(exc)
+        except user_error_types() as err:
+            print(f"{PROG}: error: {one_line(cli_message(err))}", file=sys.stderr)
+            return EXIT_USER_ERROR
+        except RuntimeError as exc:  # Dr.Jit wraps a KeyboardInterrupt raised inside its calls
+            from ..interrupts import is_interrupt
+
+            if is_interrupt(exc):
+                return interrupted(exc)
+            raise
+
+
+def interrupted(exc: BaseException) -> int:
+    """Print the one line of an interrupted command; its exit status (128 + signal number)."""
+    from ..interrupts import as_interrupted
+
+    signum = as_interrupted(exc).signum
+    done, total, what = getattr(exc, "done", None), getattr(exc, "total", None), getattr(exc, "unit", "frames")
+    if done is not None and total is not None:
+        print(f"{PROG}: interrupted after {done} of {total} {what}; run the same command to resume", file=sys.stderr)
+    else:
+        print(f"{PROG}: interrupted (a simulate or dataset run resumes where it stopped when started again)",
+              file=sys.stderr)
+    return 128 + signum
+
+
+def cli_message(err: BaseException) -> BaseException | str:
+    """A library error completed with the command that fixes it (a corrupt frame: ``check``)."""
+    from .common import corrupt_frame_message
+
+    return corrupt_frame_message(err) or err
 
 
 __all__ = ["EXIT_INTERRUPTED", "EXIT_USER_ERROR", "PROG", "SUBCOMMANDS", "UserError", "build_parser", "main",

@@ -201,6 +201,7 @@ def progress(iterable, quiet: bool, **kwargs):
 LIBRARY_USER_ERRORS = (
     ("sionnafmcw.radar", "RadarConfigError"), ("sionnafmcw.animation.errors", "AnimationError"),
     ("sionnafmcw.store", "RunStoreError"), ("sionnafmcw.materials", "MaterialError"),
+    ("sionnafmcw.simulation", "SimulationError"),
     ("sionnafmcw.engines.base", "EngineError"),  # every engine's errors, scene loading included
     ("sionnafmcw.dataset.spec", "SpecError"), ("sionnafmcw.dataset.index", "DatasetError"),
     ("sionnafmcw.io.dca1000", "CaptureError"),
@@ -217,13 +218,24 @@ def user_error_types() -> tuple:
     return tuple(types)
 
 
-def one_line(err: BaseException) -> str:
+def corrupt_frame_message(err: BaseException) -> str | None:
+    """The command-line message of a :class:`~sionnafmcw.store.CorruptFrameError` (None for other errors)."""
+    store = sys.modules.get("sionnafmcw.store")
+    if store is None or not isinstance(err, store.CorruptFrameError):
+        return None
+    return (f"{err.path}: frame {err.frame} cannot be read ({err.reason}); run 'sionnafmcw check {err.path}' to "
+            "mark it for recomputation, then the same 'sionnafmcw simulate' command to recompute it")
+
+
+def one_line(err) -> str:
     """The error's message on one line (an ``OSError`` as ``file: reason``)."""
+    if isinstance(err, str):
+        return " ".join(err.split())
     if isinstance(err, OSError) and err.strerror and err.filename:
         return f"{err.filename}: {err.strerror}"
     return " ".join(str(err).split()) or type(err).__name__
 
 
-__all__ = ["PROG", "Parser", "UserError", "coerce", "formatter", "key_values", "load_radar", "load_scene",
+__all__ = ["PROG", "Parser", "UserError", "coerce", "corrupt_frame_message", "formatter", "key_values", "load_radar", "load_scene",
            "one_line", "open_run_or_error", "parse_frames", "parse_interval", "progress", "ranges_text",
            "user_error_types"]

@@ -14,7 +14,9 @@ The radar is a preset (sionnafmcw presets), a JSON file: a full RadarConfig
 e.g. {"preset": "walk-77ghz", "num_chirps": 64}, or a TI mmWave SDK .cfg file.
 The engine is a registered name (sionnafmcw.engines.names(): path, pixel, ...);
 --engine-option sets its constructor options. An existing store written with the
-same settings is resumed: finished frames are kept.
+same settings is resumed: finished frames are kept. Everything is checked before
+the store is written; Ctrl-C (or SIGTERM) stops between frames and the same command
+resumes; --repair first reads every done frame back and recomputes unreadable ones.
 
 example:
   sionnafmcw simulate scenes/plate --radar walk-77ghz --engine path --out runs/plate.zarr \\
@@ -30,13 +32,26 @@ def add_parser(add) -> None:
     p.add_argument("--engine", default="path", metavar="NAME", help="ray-tracing engine (default: path)")
     p.add_argument("--out", required=True, metavar="RUN.zarr", help="run store to write (resumed if it exists)")
     p.add_argument("--frames", metavar="A:B", help="frames A..B-1 (also A:, :B, A:B:STEP, N or I,J,K; default all)")
-    p.add_argument("--seed", type=int, default=0, help="receiver-noise seed (default 0)")
+    p.add_argument("--seed", type=int, default=0, help="receiver-noise seed, an integer >= 0 (default 0)")
     p.add_argument("--no-noise", action="store_true", help="no receiver thermal noise")
     p.add_argument("--leakage-db", type=float, default=None, metavar="DB",
                    help="add direct Tx-Rx coupling at this level (dB); default none")
     p.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
                    help="engine setting, repeatable (path: samples_per_src, max_depth, diffuse, ...)")
+    p.add_argument("--repair", action="store_true",
+                   help="check every done frame of an existing store first; recompute the unreadable ones")
     p.set_defaults(func=run)
+
+
+def cli_words(message: str, args) -> str:
+    """A :class:`~sionnafmcw.simulation.SimulationError` in the command line's words (its options)."""
+    message = message.removeprefix("simulate: ")
+    for library, option in (("the radar's sample rate fs or lower its slope",
+                             f"the sample rate fs or lower the slope in --radar {args.radar}"),
+                            ("the radar's num_samples or num_chirps", f"num_samples or num_chirps in --radar {args.radar}"),
+                            ("seed=", "--seed "), ("leakage_db=", "--leakage-db ")):
+        message = message.replace(library, option)
+    return message
 
 
 def check_engine(name: str) -> None:
@@ -67,10 +82,21 @@ def engine_options(engine: str, items) -> dict:
     return out
 
 
+def check_numbers(args) -> None:
+    """``--seed`` >= 0, a finite ``--leakage-db``."""
+    import math
+
+    if args.seed < 0:
+        raise UserError(f"--seed {args.seed}: must be an integer >= 0")
+    if args.leakage_db is not None and not math.isfinite(args.leakage_db):
+        raise UserError(f"--leakage-db {args.leakage_db}: must be a finite level in dB (leave it out for no leakage)")
+
+
 def run(args) -> int:
     from ..radar import RadarConfigError
-    from ..simulation import simulate
+    from ..simulation import SimulationError, SimulationInterrupted, simulate
 
+    check_numbers(args)
     animation = load_scene(args.scene)
     radar = load_radar(args.radar)
     try:
@@ -84,8 +110,15 @@ def run(args) -> int:
     check_engine(args.engine)
     options = engine_options(args.engine, args.engine_option)
     out = Path(args.out)
-    run = simulate(animation, radar, engine=args.engine, out=out, frames=frames, progress=not args.quiet,
-                   seed=args.seed, noise=not args.no_noise, engine_options=options, leakage_db=args.leakage_db)
+    try:
+        run = simulate(animation, radar, engine=args.engine, out=out, frames=frames, progress=not args.quiet,
+                       seed=args.seed, noise=not args.no_noise, engine_options=options, leakage_db=args.leakage_db,
+                       repair=args.repair)
+    except SimulationInterrupted as exc:
+        exc.unit = "frames"
+        raise
+    except SimulationError as err:
+        raise UserError(cli_words(str(err), args)) from None
     print(f"wrote {out}: {run.done_frames.size} of {run.frame_times.size} frames done, radar {radar.name}, "
           f"{args.engine} engine")
     return 0
