@@ -2,7 +2,8 @@
 # Creates the simulator's virtual environment (.venv) and the system library it needs.
 #   - libLLVM >= 16 for Dr.Jit's LLVM backend (libLLVM-15 crashes it): installed with apt-get
 #     when we are root on Debian/Ubuntu, otherwise we stop and say what to install.
-#   - .venv with the package and its test and tf extras (tensorflow-cpu: ~270 MB download, ~1.4 GB installed).
+#   - libjs-mathjax, fonts-mathjax, chromium for the documentation and its test (apt-get as root).
+#   - .venv with the package and its test, tf and docs extras (tensorflow-cpu: ~270 MB download, ~1.4 GB installed).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${VENV:-.venv}
@@ -30,10 +31,26 @@ if ! have_llvm; then
   fi
 fi
 
+# The documentation's maths is rendered by a local MathJax 2 and checked in headless Chromium
+# (tests/test_docs.py): both from the distribution when we are root on Debian/Ubuntu.
+need_pkgs=()
+[ -f /usr/share/javascript/mathjax/MathJax.js ] || need_pkgs+=(libjs-mathjax fonts-mathjax)
+command -v chromium >/dev/null 2>&1 || command -v chromium-browser >/dev/null 2>&1 || need_pkgs+=(chromium)
+if [ ${#need_pkgs[@]} -gt 0 ]; then
+  if [ "$(id -u)" = "0" ] && command -v apt-get >/dev/null 2>&1; then
+    echo "setup: installing ${need_pkgs[*]} (documentation: local MathJax, headless Chromium)"
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need_pkgs[@]}" >/dev/null
+  else
+    echo "setup: the documentation needs ${need_pkgs[*]} (Debian/Ubuntu: sudo apt-get install -y ${need_pkgs[*]});" >&2
+    echo "       'make docs' and its test fail without them." >&2
+  fi
+fi
+
 if [ ! -x "$VENV/bin/python" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -e ".[test,tf]"
+"$VENV/bin/python" -m pip install -q -e ".[test,tf,docs]"
 touch "$VENV/.installed"
 echo "setup: $VENV ready"
