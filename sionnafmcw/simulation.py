@@ -77,6 +77,15 @@ def _frame_indices(frames, num_frames: int) -> list[int]:
     return indices
 
 
+def _done_count(out: Path, indices) -> int:
+    """Frames of ``indices`` done in the store ``out`` (0 when there is no readable store)."""
+    try:
+        done = open_run(out).done_mask
+    except Exception:  # noqa: BLE001 - no store (yet)
+        return 0
+    return int(sum(done[f] for f in indices if f < done.size))
+
+
 def _check_arguments(seed, noise, leakage_db) -> None:
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise SimulationError(f"simulate: seed={seed!r} must be an integer >= 0 (numpy's SeedSequence takes no "
@@ -224,17 +233,17 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
     out = Path(out)
     if repair and out.exists():
         check_run(out, repair=True)
-    with deferred():  # a signal during creation: the half-built store is removed, then the interrupt
-        store = RunStore.open(
-            out, radar, animation.num_frames, names,
-            attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
-                   "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
-                   "leakage_db": leakage_db,
-                   "sionnafmcw_version": __version__},
-            wait=wait,
-        )
-    bar = None
+    store, bar = None, None
     try:
+        with deferred():  # a signal during creation: the store is finished (or removed), then the interrupt
+            store = RunStore.open(
+                out, radar, animation.num_frames, names,
+                attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
+                       "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
+                       "leakage_db": leakage_db,
+                       "sionnafmcw_version": __version__},
+                wait=wait,
+            )
         done = store.done()
         todo = [f for f in indices if not done[f]]
         centre = world_phase_centre(radar, pose.position, pose.orientation)
@@ -259,13 +268,15 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
     except BaseException as exc:
         if is_interrupt(exc) or received() is not None:
             signum = as_interrupted(exc).signum
-            done = store.done()
-            raise SimulationInterrupted(signum, int(sum(done[f] for f in indices)), len(indices), out) from None
+            done_count = _done_count(out, indices) if store is None else \
+                int(sum(store.done()[f] for f in indices))
+            raise SimulationInterrupted(signum, done_count, len(indices), out) from None
         raise
     finally:
         if bar is not None:
             bar.close()
-        store.close()
+        if store is not None:
+            store.close()
     return open_run(out)
 
 

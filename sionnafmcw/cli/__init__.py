@@ -14,7 +14,8 @@
     sionnafmcw check RUN.zarr                                    verify every done frame; mark unreadable ones
 
 Modules: :mod:`.presets`, :mod:`.scene`, :mod:`.simulate`, :mod:`.plot` (figure kinds as a
-table), :mod:`.export`, :mod:`.validate`, :mod:`.dataset`; :mod:`.common` holds the shared parsers and loaders.
+table), :mod:`.export`, :mod:`.validate`, :mod:`.dataset`, :mod:`.check`; :mod:`.common` holds the shared
+parsers and loaders.
 Each has ``add_parser(add)`` and the function(s) it runs.
 
 Global options: ``--quiet`` (no progress bars), ``--version``. A user error (a missing file, an
@@ -31,13 +32,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import dataset, export, plot, presets, scene, simulate, validate
+from . import check, dataset, export, plot, presets, scene, simulate, validate
 from .common import PROG, Parser, UserError, formatter, one_line, parse_frames, user_error_types
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: Subcommand modules, in the order ``--help`` lists them.
-SUBCOMMANDS = (presets, scene, simulate, plot, export, validate, dataset)
+SUBCOMMANDS = (presets, scene, simulate, plot, export, validate, dataset, check)
 EPILOG = """\
 example:
   sionnafmcw scene build moving_plate scenes/plate

@@ -10,7 +10,10 @@ from .common import UserError
 HELP = "Generate a data set from a specification file."
 EPILOG = """\
 A finished run with the same SPEC and DIR resumes: complete items are skipped. Exit status 1
-when some items failed (they are listed in DIR's index with their error).
+when some items failed (they are listed in DIR's index with their error). Killed or
+interrupted at any moment (Ctrl-C: status 130), the same command resumes: no item is lost
+or computed twice. On a cluster: one 'dask scheduler', N 'dask worker ADDRESS --nthreads 1'
+processes, DIR on a file system every worker sees at the same path (see the README).
 
 example:
   sionnafmcw dataset specs/walkers.yaml --out data/walkers --workers 2

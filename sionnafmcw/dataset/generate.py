@@ -44,12 +44,24 @@ import numpy as np
 from .index import (INDEX_DIR, INDEX_FORMAT, SPEC_FILE, DatasetError, build_index, choose_label_object, item_dir,
                     read_json, store_labels, store_state, write_index, write_json_atomic)
 from .spec import DatasetSpec, load_spec
+from .. import _faults
+from ..interrupts import Interrupted, as_interrupted, handling_signals, is_interrupt
 
 INDEX_INTERVAL = 10.0  # s between index rewrites while items finish (and once at the end)
 
 
 class DatasetWarning(UserWarning):
     """Some items of a data set failed (the index and items/<id>/item.json say why)."""
+
+
+class DatasetInterrupted(Interrupted):
+    """:func:`generate` stopped by SIGINT / SIGTERM: ``done`` of ``total`` items complete; the folder
+    is consistent (index written) and the same call resumes it."""
+
+    def __init__(self, signum: int, done: int, total: int, out):
+        super().__init__(signum, f"interrupted after {done} of {total} items; generate again with the same "
+                                 "spec and folder to resume")
+        self.done, self.total, self.out, self.unit = int(done), int(total), Path(out), "items"
 
 
 # ===================================================================================== worker side
@@ -66,10 +78,36 @@ def _set_threads(threads):
         _THREADS_SET = threads
 
 
+#: Seconds a task waits for another live process still writing its item's store (a worker of a
+#: previous driver that outlived it) before it fails; it then resumes what that process left.
+ITEM_WAIT = 3600.0
+
+
+def worker_identity() -> str:
+    """``"<dask worker name> <address> pid <pid>"`` of the Dask worker running this task, or
+    ``"<host> pid <pid>"`` outside a worker: what the index's ``worker`` records."""
+    try:
+        from distributed import get_worker
+
+        w = get_worker()
+        return f"{w.name} {w.address} pid {os.getpid()}"
+    except (ImportError, ValueError):
+        return f"{socket.gethostname()} pid {os.getpid()}"
+
+
 def run_item(task: dict) -> dict:
-    """Build, simulate and label one item (runs in a worker). Never raises: failures come back as a record."""
+    """Build, simulate and label one item (runs in a worker). Never raises: failures come back as a record.
+
+    Crash safety: the store is created atomically and resumed frame by frame
+    (:func:`~sionnafmcw.simulate`); a store another live process is still writing (a worker that
+    outlived its driver) is waited for (:data:`ITEM_WAIT`) and then only completed, never redone.
+    The worker that computes frames records itself in ``item.json`` first (status ``running``) and
+    writes the finished record itself, so an item finished after its driver died is indexed with
+    its worker by the next driver.
+    """
     start, cpu = time.perf_counter(), time.process_time()
-    result = {"id": task["item"]["id"], "worker": f"{socket.gethostname()}:{os.getpid()}"}
+    me = worker_identity()
+    result = {"id": task["item"]["id"], "worker": me}
     try:
         from .. import scenes
         from ..animation import RadarPose
@@ -100,18 +138,31 @@ def run_item(task: dict) -> dict:
             pose = RadarPose(np.asarray(spec["radar_pose"]["position"], float),
                              np.asarray(spec["radar_pose"]["orientation"], float))
         store = folder / "run.zarr"
+        record_path = folder / "item.json"
+        made_by = (read_json(record_path) or {}).get("worker", "")
+        if not store_state(store, spec.get("frames"))["complete"]:
+            write_json_atomic(record_path, {**(read_json(record_path) or {}), "status": "running", "worker": me})
+            made_by = me
         simulate(scene, RadarConfig.from_dict(item["radar"]), engine=spec["engine"], out=store,
                  frames=spec.get("frames"), progress=False, radar_pose=pose, seed=item["noise_seed"],
-                 noise=spec.get("noise", True), engine_options=spec.get("engine_options") or {})
+                 noise=spec.get("noise", True), engine_options=spec.get("engine_options") or {},
+                 wait=task.get("wait", ITEM_WAIT))
         state = store_state(store, spec.get("frames"))
         if not state["complete"]:
             raise DatasetError(f"{store}: simulate returned but frames are not all marked done")
-        result.update(status="complete", error="", traceback="",
+        _faults.point("item-simulated", item=item["id"])
+        result.update(status="complete", error="", traceback="", worker=made_by or me,
                       labels=store_labels(store, spec.get("label_object")))
     except Exception as exc:  # noqa: BLE001 - an item's failure is data, not a crash
         result.update(status="failed", error=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc())
     result["seconds"] = time.perf_counter() - start
     result["cpu_seconds"] = time.process_time() - cpu  # the whole worker process (all its threads)
+    if result["status"] == "complete":
+        try:
+            path = Path(task["dir"]) / "item.json"
+            write_json_atomic(path, {**(read_json(path) or {}), **task["item"], **result})
+        except OSError:
+            pass  # the driver writes the record too
     return result
 
 
@@ -222,6 +273,8 @@ def _record(out: Path, spec: DatasetSpec, item) -> dict:
             record["status"] = "failed"
         if state["frame_done"].any():
             record["labels"] = _partial_labels(folder / "run.zarr", spec.label_object)
+    if state["complete"] and old.get("status") != "complete":
+        _save_record(out, record)  # finished after its driver died (the worker outlived it): recorded now
     record["frames_done"] = int(state["frame_done"].sum())
     if state["num_frames"]:
         record["num_frames"] = state["num_frames"]
@@ -320,7 +373,7 @@ def generate(spec, out, scheduler=None, workers: int | None = None, progress: bo
     t_start = time.perf_counter()
     out = Path(out).expanduser().resolve()
     out.mkdir(parents=True, exist_ok=True)
-    with _Lock(out):
+    with handling_signals(), _Lock(out):
         _check_folder(out, spec)
         for stale in out.glob(f".{INDEX_DIR}.*"):  # left by a killed index write
             shutil.rmtree(stale, ignore_errors=True)
@@ -339,6 +392,11 @@ def generate(spec, out, scheduler=None, workers: int | None = None, progress: bo
                 _run_on_cluster(spec, out, todo, {r["id"]: r for r in records}, bar,
                                 _connect(scheduler, workers, len(todo), cluster_options), item_threads, retries)
             summary = _summary(spec, records, time.perf_counter() - t_start)
+        except BaseException as exc:
+            if is_interrupt(exc):
+                complete = sum(r["status"] == "complete" for r in records)
+                raise DatasetInterrupted(as_interrupted(exc).signum, complete, len(records), out) from None
+            raise
         finally:
             if bar is not None:
                 bar.close()
@@ -385,6 +443,7 @@ def _run_on_cluster(spec, out, todo, by_id, bar, connection, item_threads, retri
             if state["num_frames"]:
                 record["num_frames"] = state["num_frames"]
             _save_record(out, record)
+            _faults.point("item-recorded", item=record["id"])
             if bar is not None:
                 bar.update(1)
                 bar.set_postfix(failed=sum(r["status"] == "failed" for r in by_id.values()), refresh=False)
@@ -404,4 +463,4 @@ def _save_record(out: Path, record: dict) -> None:
     write_json_atomic(folder / "item.json", record)
 
 
-__all__ = ["DatasetWarning", "generate", "run_item"]
+__all__ = ["DatasetInterrupted", "DatasetWarning", "generate", "run_item", "worker_identity"]

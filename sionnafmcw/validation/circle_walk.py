@@ -117,10 +117,12 @@ def main(argv=None) -> int:
     from ..animation import load_animation
 
     out = Path(args.out)
+    radar = RadarConfig.resolve(args.radar)  # inputs checked before the output folder is made
+    animation = load_animation(args.scene) if args.scene else None
     out.mkdir(parents=True, exist_ok=True)
-    radar = RadarConfig.resolve(args.radar)
     scene_dir = Path(args.scene) if args.scene else build_scene("circle_walk", out / "scene")
-    animation = load_animation(scene_dir)
+    if animation is None:
+        animation = load_animation(scene_dir)
     n = animation.num_frames if args.frames is None else min(int(args.frames), animation.num_frames)
     frames = list(range(n))
     engines = ["path", "pixel"] if args.engine == "both" else [args.engine]

@@ -329,8 +329,8 @@ def main(argv=None) -> int:
     from ..animation import load_animation
 
     out = Path(args.out)
+    radar = RadarConfig.resolve(args.radar)  # inputs checked before the output folder is made
     out.mkdir(parents=True, exist_ok=True)
-    radar = RadarConfig.resolve(args.radar)
     metrics = {"experiment": "pixel_vs_path", "radar": radar.name, "targets": TARGETS, "scenes": {}, "figures": [],
                "path_specular": not args.no_path_specular}
     for scene in args.scenes:
