@@ -186,10 +186,10 @@ def coherence_benchmark(args):
                 rows.append({"frame": frame, "model": model, "torso_range_m": float(ranges[torso]),
                              "torso_azimuth_deg": float(np.rad2deg(azimuths[torso])),
                              "azimuth_error_deg": float(np.rad2deg(error)), "beamwidth_deg": float(np.rad2deg(width)),
-                             "engine_s": stats.seconds, "simulate_s": total, "num_paths": stats.num_paths})
+                             "engine_s": stats.seconds, "simulate_s": total, "num_traced_paths": stats.num_traced_paths})
                 print(f"frame {frame:3d} {model:12s} torso {ranges[torso]:.2f} m {np.rad2deg(azimuths[torso]):+7.2f} deg: "
                       f"error {np.rad2deg(error):+6.2f} deg, -3 dB width {np.rad2deg(width):5.2f} deg, engine "
-                      f"{stats.seconds:.2f} s, simulate {total:.2f} s, paths {stats.num_paths}", flush=True)
+                      f"{stats.seconds:.2f} s, simulate {total:.2f} s, traced paths {stats.num_traced_paths}", flush=True)
     summary = {}
     for model in models:
         mine = [r for r in rows if r["model"] == model]
@@ -200,13 +200,13 @@ def coherence_benchmark(args):
             "median_beamwidth_deg": float(np.median([r["beamwidth_deg"] for r in mine])),
             "median_engine_s_per_frame": float(np.median([r["engine_s"] for r in warm])),
             "median_simulate_s_per_frame": float(np.median([r["simulate_s"] for r in warm])),
-            "median_paths": float(np.median([r["num_paths"] for r in mine])),
+            "median_traced_paths": float(np.median([r["num_traced_paths"] for r in mine])),
         }
         s_ = summary[model]
         print(f"{model:12s}: |azimuth error| median {s_['median_abs_azimuth_error_deg']:.2f} deg "
               f"(rms {s_['rms_azimuth_error_deg']:.2f}), -3 dB width median {s_['median_beamwidth_deg']:.2f} deg, "
               f"engine {s_['median_engine_s_per_frame']:.2f} s/frame, simulate {s_['median_simulate_s_per_frame']:.2f} "
-              f"s/frame, paths {s_['median_paths']:.0f}")
+              f"s/frame, traced paths {s_['median_traced_paths']:.0f}")
     print(json.dumps({"frames": frames, "samples_per_src": args.samples, "max_depth": args.depth,
                       "summary": summary, "rows": rows}))
 

@@ -200,8 +200,9 @@ def trace_candidates(solver, scene, *, samples_per_src: int, max_num_paths_per_s
     """The first step of ``PathSolver.__call__`` (no line of sight): candidate paths of ``scene``.
 
     Flushes pending parameter updates (``dr.eval()``, so every frame has the same kernel
-    partition), takes the per-element sources and targets (``synthetic_array=False``) as opaque
-    values, runs the solver's candidate generator and evaluates the buffer. The caller checks
+    partition), takes the scene's sources and targets, one per array element
+    (``synthetic_array=False``; the path engine's coherent model gives each array one element), as
+    opaque values, runs the solver's candidate generator and evaluates the buffer. The caller checks
     :attr:`Candidates.found` against :attr:`Candidates.capacity` before :func:`solve_fields`.
     """
     scene.all_set(radio_map=False)

@@ -55,7 +55,8 @@ def test_diffuse_plate_azimuth_one_set_of_scatterers(tmp_path):
     coherent = PathEngine(samples_per_src=200_000, specular=False)
     echoes = coherent.echoes(anim, radar, 0)
     # one set of scatterers: every element pair carries the same contributions (the traced paths)
-    assert echoes.num_contributions == coherent.last_stats.num_paths > 50
+    assert echoes.num_contributions == coherent.last_stats.num_traced_paths > 50
+    assert coherent.last_stats.num_paths == 12 * echoes.num_contributions
     assert np.all(echoes.a != 0) and np.all(echoes.labels == "plate")
     assert abs(_azimuth_estimate(echoes, radar) - azimuth) < RAYLEIGH / 2
 
