@@ -58,9 +58,9 @@ class FrameStats:
     ``kernels_compiled``: those found neither in Dr.Jit's in-memory nor on-disk cache (so compiled
     by LLVM); ``new_kernel_hashes``: kernels this engine had not launched before (independent of
     the caches: the measure of recompilation); ``reloaded``: the scene was (re)loaded in this call.
-    ``figures`` holds the engine's own figures (the path engine's ``num_paths``, the pixel
-    engine's ``trace_seconds``, ``num_hits``, ``num_contributions``), also readable as attributes
-    (``stats.num_paths``).
+    ``figures`` holds the engine's own figures (the path engine's ``num_paths``,
+    ``num_traced_paths`` and ``num_duplicates``, the pixel engine's ``trace_seconds``,
+    ``num_hits``, ``num_contributions``), also readable as attributes (``stats.num_paths``).
     """
 
     frame: int

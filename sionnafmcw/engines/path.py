@@ -86,8 +86,8 @@ whatever the incidence :math:`\theta`. The largest preset aperture is ``walk-77g
 at 1 m (:math:`\lambda/135`, 0.05 rad of round-trip phase, :math:`10^{-13}` s) and 2.9 µm at
 10 m (0.005 rad); ``ti-awr1843boost`` 12 µm at 1 m. Multi-bounce specular chains obey the same
 stationarity. The Doppler of the fixed point differs from the true one by about
-:math:`|\mathbf u|\,|\boldsymbol\delta|/(R\lambda)`: 2.8 Hz for 1 m/s, 1 cm, 1 m (a hundredth of a
-``walk-77ghz`` Doppler bin).
+:math:`|\mathbf u|\,|\boldsymbol\delta|/(R\lambda)`: 2.8 Hz for 1 m/s, 1.1 cm, 1 m (under a tenth of
+a ``walk-77ghz`` Doppler bin, 37 Hz), 0.3 Hz at 10 m.
 
 Coincident specular paths
 -------------------------
