@@ -58,7 +58,7 @@ points :math:`\mathbf v_1 \dots \mathbf v_d` of a traced path and
   below 1 % (0.1 dB) at 1 m for these arrays;
 * **Doppler** :math:`f_{mn} = -\frac{1}{\lambda}\frac{d}{dt}L_{mn}` with the interaction points'
   velocities (Sionna's per-object velocity, or the per-vertex field below): the traced path's
-  Doppler :math:`f_0 = \sum_i \mathbf v(\mathbf v_i)\cdot(\hat{\mathbf k}_{out,i} - \hat{\mathbf k}_{in,i})/\lambda`
+  Doppler :math:`f_0 = \sum_i \mathbf u_i\cdot(\hat{\mathbf k}_{out,i} - \hat{\mathbf k}_{in,i})/\lambda`
   plus the change of the first incident and the last outgoing direction,
 
   .. math:: f_{mn} = f_0 + \big[\mathbf u_1\cdot(\hat{\mathbf k}^{0}_{in,1} - \hat{\mathbf k}^{m}_{in,1})
