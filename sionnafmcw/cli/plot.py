@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import UserError, load_scene, open_run_or_error, parse_interval, progress, ranges_text
+from .common import UserError, corrupt_frame_message, load_scene, open_run_or_error, parse_interval, progress, ranges_text
 
 HELP = "Process a run store and write PNG figures."
 EPILOG = """\
@@ -62,7 +62,16 @@ class Figures:
         return f"{self.run.engine.get('engine', '?')} engine, {clutter}"
 
     def cubes(self, desc: str):
-        return (self.run.cube(i) for i in progress(self.done, self.args.quiet, desc=desc, unit="frame"))
+        """The done frames' cubes, one at a time; an unreadable frame is a :class:`UserError` naming it
+        and the fix (raised as such through the processing, which may catch ``ValueError``)."""
+        from ..store import CorruptFrameError
+
+        for i in progress(self.done, self.args.quiet, desc=desc, unit="frame"):
+            try:
+                cube = self.run.cube(i)
+            except CorruptFrameError as err:
+                raise UserError(corrupt_frame_message(err)) from None
+            yield cube
 
 
 def range_doppler(fig: Figures) -> Path:
