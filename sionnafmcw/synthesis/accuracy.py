@@ -1,0 +1,205 @@
+r"""How accurate the fast beat sum must be, and the NUFFT precision and Taylor order that deliver it.
+
+Error model. Per channel the fast sum (:mod:`.nufft`) evaluates
+
+.. math::
+    x(l', k') = \sqrt{P_t}\sum_p g_p\, e^{j2\pi(A_p X + B_p Y)}\, e^{j2\pi R_p(l', k')},
+    \qquad |g_p| = |a_p|,
+
+with the residual phase :math:`2\pi|R_p| \le \theta_p` on the whole (chirp, sample) grid. Two
+approximations are made, and both have per-sample bounds in absolute units (:math:`\sqrt{W}`):
+
+* **Taylor truncation** of :math:`e^{j2\pi R_p}` at total degree :math:`Q`. The multinomial terms
+  of degree :math:`\le Q` sum exactly to :math:`\sum_{n\le Q}(j2\pi R_p)^n/n!`, and for a real
+  phase :math:`|e^{j\phi} - \sum_{n\le Q}(j\phi)^n/n!| \le |\phi|^{Q+1}/(Q+1)!`, so
+
+  .. math:: E_T \le \sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\,\frac{\theta_p^{Q+1}}{(Q+1)!}.
+
+  A static contribution has :math:`\theta_p = 0` and costs nothing here.
+* **NUFFT** (finufft, tolerance :math:`\epsilon`): finufft's tolerance is relative to the sum of
+  the magnitudes of the strengths, so transform :math:`t` (strengths
+  :math:`g_p\prod_i (j2\pi r_{i,p})^{e_i}/e_i!`, multiplied on the grid by its basis, whose
+  largest value is :math:`\prod_i \max|b_i|^{e_i}`) errs by at most about
+  :math:`\epsilon\,\|s_t\|_1\max|b_t|`; summed over the terms,
+
+  .. math:: E_N \le \epsilon\,\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{n\le Q}\frac{\theta_p^n}{n!}
+            \;\le\; \epsilon\,\sqrt{P_t}\,\max\sum_p |a_p|\, e^{\theta_p}.
+
+Budget from the noise floor. With thermal noise on, the synthesis error only has to stay well
+below the receiver noise :math:`\sigma = \sqrt{k T_0 F F_s}` per sample: a margin of
+:math:`D` dB (default 20) sets the budget :math:`E_{\max} = \sigma\,10^{-D/20}`, i.e. the error
+power is at most 1 % of the noise power and changes the noise floor by < 0.05 dB. The order
+:math:`Q` is the smallest that keeps :math:`E_T \le 0.1\,E_{\max}`, and the NUFFT tolerance takes
+the rest,
+
+.. math::
+    \epsilon = \frac{E_{\max} - E_T}{\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{n\le Q}\theta_p^n/n!},
+
+clipped to :data:`MAX_NUFFT_TOL` (a looser kernel is not faster). For the walk-77ghz radar
+(:math:`\sigma = 0.56\ \mu\sqrt{W}`) and a room with a person (:math:`\sqrt{P_t}\sum|a|` a few
+:math:`10^{-3}\sqrt{W}` per channel) this is :math:`\epsilon \approx 10^{-5}`. Single precision
+(complex64 finufft, about 3x less work) is used when :math:`\epsilon \ge`
+:data:`SINGLE_PRECISION_MIN_TOL`: float32 finufft bottoms out at a few :math:`10^{-6}` of the
+strength sum on these grids (measured), so the bound still holds with margin there.
+
+With noise off there is no floor to hide under: the tight defaults :data:`NUFFT_TOL`,
+:data:`TAYLOR_TOL` (relative, double precision) are kept unless an explicit absolute
+``max_error`` is given.
+
+Both bounds are worst cases (every contribution adding in phase at one sample); the error
+measured against the direct sum is typically 3-30x smaller (``tests/test_synthesis.py``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import product
+from math import factorial
+
+import numpy as np
+
+#: Tight finufft tolerance (relative to the strength sum) used without a noise floor.
+NUFFT_TOL = 1e-7
+#: Tight bound on the largest neglected Taylor term (relative) used without a noise floor.
+TAYLOR_TOL = 1e-8
+#: Taylor order cap (a residual that needs more is outside the model's intended regime).
+MAX_ORDER = 6
+#: Default margin of the synthesis error below the thermal noise per sample (dB).
+NOISE_MARGIN_DB = 20.0
+#: Share of the error budget given to the Taylor truncation; the NUFFT gets the rest.
+TAYLOR_SHARE = 0.1
+#: Smallest finufft tolerance for which the single-precision (complex64) library is used.
+SINGLE_PRECISION_MIN_TOL = 5e-5
+#: Loosest finufft tolerance requested (looser is no faster on these grids).
+MAX_NUFFT_TOL = 1e-3
+
+
+def noise_error_budget(radar, margin_db: float = NOISE_MARGIN_DB) -> float:
+    """Largest synthesis error per sample, :math:`\\sqrt{k T_0 F F_s}\\,10^{-D/20}` (sqrt(W))."""
+    return float(np.sqrt(radar.noise_power) * 10 ** (-margin_db / 20))
+
+
+def taylor_order(theta: float, tol: float = TAYLOR_TOL) -> int:
+    """Smallest Q with theta^(Q+1)/(Q+1)! <= tol (0 when theta is 0): the tight, relative rule."""
+    if theta <= 0:
+        return 0
+    for q in range(MAX_ORDER + 1):
+        if theta ** (q + 1) / factorial(q + 1) <= tol:
+            return q
+    raise _order_error(theta)
+
+
+def _order_error(theta: float) -> ValueError:
+    return ValueError(
+        f"beat synthesis: residual phase {theta:.3g} rad needs a Taylor order above {MAX_ORDER}; "
+        "the contribution velocities are far outside the radar's design (check Echoes.doppler units: Hz)"
+    )
+
+
+@dataclass(frozen=True)
+class SynthesisAccuracy:
+    """The fast sum's settings and its worst-case error per sample (sqrt(W)).
+
+    ``terms``: the Taylor monomials kept, exponents of :math:`(l'k', k'^2, l'^2)`; ``order``: their
+    largest total degree; ``nufft_tol``: finufft tolerance; ``dtype``: finufft precision
+    (``"complex64"`` or ``"complex128"``); ``taylor_bound``, ``nufft_bound``: :math:`E_T`,
+    :math:`E_N` of the module docstring for the echoes at hand; ``max_error``: the budget they were
+    chosen for (None: the tight relative defaults).
+    """
+
+    terms: tuple
+    nufft_tol: float
+    dtype: str
+    taylor_bound: float
+    nufft_bound: float
+    max_error: float | None
+
+    @property
+    def order(self) -> int:
+        return max(sum(t) for t in self.terms)
+
+    @property
+    def error_bound(self) -> float:
+        """:math:`E_T + E_N`, the bound on any sample's error (sqrt(W))."""
+        return self.taylor_bound + self.nufft_bound
+
+
+def monomials(order: int) -> list[tuple]:
+    """Exponents of :math:`(l'k', k'^2, l'^2)` with total degree <= ``order``, by degree."""
+    return [t for t in product(range(order + 1), repeat=3) if sum(t) <= order]
+
+
+def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: float | None = None,
+                    nufft_tol: float = NUFFT_TOL, taylor_tol: float = TAYLOR_TOL) -> SynthesisAccuracy:
+    r"""Taylor terms, finufft tolerance and precision for the live contributions of every channel.
+
+    ``amplitudes``: one array :math:`|a_p|` per channel; ``residual_phases``: one ``[3, P]`` array
+    per channel, :math:`\phi_{i,p} = 2\pi|r_{i,p}|\max|b_i|` for the residual coefficients
+    :math:`(\delta, \rho, K_l)` and their bases :math:`(l'k', k'^2, l'^2)`, so that
+    :math:`\theta_p = \sum_i\phi_{i,p}`.
+
+    With ``max_error`` (sqrt(W) per sample) the settings come from that budget. The monomials are
+    kept in order of their weight :math:`w_t = \sqrt{P_t}\max_c\sum_p|a_p|\prod_i\phi_{i,p}^{e_i}/e_i!`
+    (the largest any of their samples can be) until the dropped ones and the tail beyond degree
+    :data:`MAX_ORDER`, :math:`\sqrt{P_t}\max_c\sum_p|a_p|\,e^{\theta_p}\theta_p^{D+1}/(D+1)!`, add up to
+    at most ``TAYLOR_SHARE * max_error`` (the multinomial series converges absolutely, so this bounds
+    the truncation whatever the kept set); the NUFFT tolerance takes the rest of the budget over
+    :math:`\sum_{t\,\rm kept} w_t`. Without it, all monomials up to the order given by the relative
+    ``taylor_tol`` and the relative ``nufft_tol`` in double precision (the tight default).
+    """
+    root_pt = float(np.sqrt(tx_power))
+    pairs = [(np.asarray(a, float), np.asarray(f, float).reshape(3, -1)) for a, f in zip(amplitudes, residual_phases)]
+    static_sum = root_pt * max((float(a.sum()) for a, _ in pairs), default=0.0)
+    # only moving contributions have a residual: keep those for the Taylor weights
+    moving = []
+    for a, f in pairs:
+        theta = f.sum(axis=0)
+        keep = theta > 0
+        moving.append((a[keep], f[:, keep], theta[keep]))
+    theta_max = max((float(t.max()) for _, _, t in moving if t.size), default=0.0)
+
+    def weight(term):  # sqrt(P_t) max_c sum_p |a_p| prod_i phi_i^e_i / e_i!
+        if not any(term):
+            return static_sum
+        best = 0.0
+        for a, f, _ in moving:
+            w = a.copy()
+            for i, e in enumerate(term):
+                if e:
+                    w = w * f[i] ** e / factorial(e)
+            best = max(best, float(w.sum()))
+        return root_pt * best
+
+    def tail(d, factor=True):  # sqrt(P_t) max_c sum_p |a_p| [e^theta] theta^(d+1)/(d+1)!
+        return root_pt * max((float(np.sum(a * (np.exp(t) if factor else 1.0) * t ** (d + 1))) for a, _, t in moving),
+                             default=0.0) / factorial(d + 1)
+
+    if max_error is None:
+        order = taylor_order(theta_max, taylor_tol)
+        terms = monomials(order)
+        return SynthesisAccuracy(tuple(terms), float(nufft_tol), "complex128", tail(order, factor=False),
+                                 nufft_tol * sum(weight(t) for t in terms), None)
+    if not (np.isfinite(max_error) and max_error > 0):
+        raise ValueError(f"beat synthesis: max_error must be a positive number of sqrt(W), got {max_error!r}")
+    allowed = TAYLOR_SHARE * max_error
+    # the smallest candidate degree whose tail leaves half the Taylor share for dropped monomials
+    degree = next((d for d in range(MAX_ORDER + 1) if tail(d) <= 0.5 * allowed), None)
+    if degree is None:
+        raise _order_error(theta_max)
+    candidates = monomials(degree)
+    weights = {t: weight(t) for t in candidates}
+    candidates.sort(key=lambda t: (-weights[t], sum(t)))
+    kept = len(candidates)
+    dropped = tail(degree)
+    while kept > 1 and dropped + weights[candidates[kept - 1]] <= allowed:  # drop the lightest first
+        kept -= 1
+        dropped += weights[candidates[kept]]
+    terms = sorted(candidates[:kept], key=lambda t: (sum(t), t))
+    if terms[0] != (0, 0, 0):
+        terms = [(0, 0, 0)] + [t for t in terms if t != (0, 0, 0)]
+    total = sum(weights[t] for t in terms)
+    tol = MAX_NUFFT_TOL if total == 0 else min(MAX_NUFFT_TOL, (max_error - dropped) / total)
+    # double precision cannot go much below 1e-14 relative; the bound then says so honestly
+    tol = max(tol, 1e-14)
+    dtype = "complex64" if tol >= SINGLE_PRECISION_MIN_TOL else "complex128"
+    return SynthesisAccuracy(tuple(terms), float(tol), dtype, dropped, tol * total, float(max_error))
