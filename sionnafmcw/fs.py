@@ -259,7 +259,11 @@ def _alive(pid) -> bool:
         return False
     except PermissionError:
         return True
-    return True
+    try:  # a killed process its parent has not reaped yet (a zombie) is gone too
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return True
 
 
 __all__ = ["LockBusy", "LockFile", "STALE_AFTER", "atomic_directory", "atomic_write_bytes", "atomic_write_text",
