@@ -6,13 +6,16 @@ radar ``walk-77ghz`` (3 Tx x 4 Rx) at its default pose. Per frame, in the same p
 * ``mitsuba``: ``scene.mi_scene.ray_intersect`` (a full surface interaction) of the same pixel
   rays from the phase centre, on the engine's own scene after its geometry update: the baseline;
 * ``engine``: ``PixelEngine.echoes(animation, radar, frame)`` (geometry update, cast, per-pixel
-  range, velocity field, Fresnel/Lambertian strength, per-element delays and Doppler);
+  range, velocity field, Fresnel/Lambertian strength, per-element delays and Doppler; with
+  ``--model physical-optics``, the default, also the per-object PO render and its echoes);
 * ``synthesis``: ``synthesize`` of the frame's echoes (NUFFT), for scale.
 
 Prints the median seconds per frame after two warm-up frames, the ratios engine / mitsuba and
-synthesis / engine, hits per frame, kernels compiled after warm-up and the peak RSS, as JSON.
+synthesis / engine, hits per frame, PO rays and samples per frame, kernels compiled after warm-up
+and the peak RSS, as JSON.
 
     python benchmarks/pixel_engine.py [--frames 8] [--n-az 128] [--n-el 64] [--array-model exact]
+                                      [--model physical-optics|lambertian]
 """
 
 from __future__ import annotations
@@ -33,6 +36,7 @@ def main(argv=None) -> int:
     parser.add_argument("--n-az", type=int, default=128)
     parser.add_argument("--n-el", type=int, default=64)
     parser.add_argument("--array-model", choices=("plane-wave", "exact"), default="plane-wave")
+    parser.add_argument("--model", choices=("physical-optics", "lambertian"), default="physical-optics")
     args = parser.parse_args(argv)
 
     from sionnafmcw import PixelEngine, RadarConfig, load_animation, scenes, synthesize
@@ -44,7 +48,7 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         # the full 100-frame lap (the walking speed follows from the lap time), of which frames are timed
         animation = load_animation(scenes.build("circle_walk", Path(tmp) / "scene"))
-        engine = PixelEngine(n_az=args.n_az, n_el=args.n_el, array_model=args.array_model)
+        engine = PixelEngine(n_az=args.n_az, n_el=args.n_el, array_model=args.array_model, model=args.model)
         pose = animation.radar_pose
         rot = rotation_matrix(pose.orientation)
         origin = pose.position + rot @ phase_centre(radar)
@@ -52,7 +56,7 @@ def main(argv=None) -> int:
         o = mi.Point3f(*[mi.Float(np.full(len(directions), origin[i], dtype=np.float32)) for i in range(3)])
         d = mi.Vector3f(*[mi.Float(np.ascontiguousarray(directions[:, i], dtype=np.float32)) for i in range(3)])
         times = {"engine": [], "mitsuba": [], "synthesis": []}
-        hits = []
+        hits, po_rays, po_samples = [], [], []
         for f in range(min(args.frames + 2, animation.num_frames)):
             t0 = time.perf_counter()
             echoes = engine.echoes(animation, radar, f)
@@ -68,14 +72,18 @@ def main(argv=None) -> int:
                 times["mitsuba"].append(t2 - t1)
                 times["synthesis"].append(t3 - t2)
                 hits.append(echoes.num_contributions)
+                po_rays.append(engine.last_stats.num_po_rays)
+                po_samples.append(engine.last_stats.num_po_samples)
         med = {k: float(np.median(v)) for k, v in times.items()}
         result = {
             "scene": "circle_walk", "pixels": args.n_az * args.n_el, "array_model": args.array_model,
+            "model": args.model,
             "frames_timed": len(hits),
             "seconds_per_frame": med,
             "ratio_engine_over_mitsuba": med["engine"] / med["mitsuba"],
             "ratio_synthesis_over_engine": med["synthesis"] / med["engine"],
-            "hits_per_frame": float(np.mean(hits)),
+            "contributions_per_frame": float(np.mean(hits)),
+            "po_rays_per_frame": float(np.mean(po_rays)), "po_samples_per_frame": float(np.mean(po_samples)),
             "kernels_compiled_after_warmup": int(sum(s.kernels_compiled for s in engine.stats[2:])),
             "peak_rss_mib": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
         }

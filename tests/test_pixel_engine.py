@@ -71,6 +71,7 @@ def test_pixel_solid_angles_sum_to_the_field_of_view(n_az, n_el, fov_az, fov_el)
     ({"fov_az": 0.0}, "fov_az"), ({"fov_az": -0.2}, "fov_az"), ({"fov_az": np.pi + 1e-9}, "fov_az"),
     ({"fov_el": 60.0}, "fov_el"), ({"fov_el": float("nan")}, "fov_el"),
     ({"array_model": "spherical"}, "array_model"), ({"scattering_coefficient": 1.5}, "scattering_coefficient"),
+    ({"model": "mirror"}, "model"), ({"diffuse_phase": 1}, "diffuse_phase"),
 ])
 def test_bad_parameters_name_the_parameter(options, name):
     with pytest.raises(PixelEngineError, match=name):
@@ -276,8 +277,8 @@ def test_plane_wave_vs_exact(tmp_path, distance, near):
 def test_absolute_power_facing_metal_plate_closed_form(tmp_path):
     r"""A metal plate (ITU, S = 0) facing an isotropic point radar at D = 2 m, wider than the FoV.
 
-    S = 0: the pixel engine sees nothing (diffuse only) and warns. With scattering_coefficient=1 every
-    pixel is Sionna's Lambertian scatterer: |a|^2 = (lambda/4 pi)^2 Gamma^2 (cos(theta)/pi) dOmega / R^2
+    S = 0: the pixel engine's Lambertian model (the paper's eq. (2)) sees nothing (diffuse only) and
+    warns. With scattering_coefficient=1 every pixel is Sionna's Lambertian scatterer: |a|^2 = (lambda/4 pi)^2 Gamma^2 (cos(theta)/pi) dOmega / R^2
     with R = D / cos(theta), cos(theta) = cos(el) cos(az), so
 
         sum |a|^2 = (lambda/4 pi)^2 Gamma^2 / (pi D^2) * int cos^3(az) d az * int cos^4(el) d el
@@ -291,9 +292,9 @@ def test_absolute_power_facing_metal_plate_closed_form(tmp_path):
     anim = load_animation(root)
     grid = dict(n_az=n_az, n_el=n_el, fov_az=fov_az, fov_el=fov_el)
     with pytest.warns(UserWarning, match="scattering_coefficient 0"):
-        dark = PixelEngine(**grid).echoes(anim, POINT_RADAR, 0)
+        dark = PixelEngine(model="lambertian", **grid).echoes(anim, POINT_RADAR, 0)
     assert dark.num_contributions == 0
-    engine = PixelEngine(scattering_coefficient=1.0, **grid)
+    engine = PixelEngine(scattering_coefficient=1.0, model="lambertian", **grid)
     echoes = engine.echoes(anim, POINT_RADAR, 0)
     assert echoes.num_contributions == n_az * n_el
     power = np.sum(np.abs(echoes.a) ** 2)
@@ -346,7 +347,7 @@ def test_power_matches_path_engine_on_tilted_rough_plate(tmp_path, scattering):
                                        num_frames=1, materials=rough(scattering, kx=0.3), material="mat-rough",
                                        radar_pose=((0, 0, 0), (0, np.deg2rad(5.0), 0)))
     anim = load_animation(root)
-    pixel = PixelEngine(n_az=640, n_el=640, fov_az=np.deg2rad(26.0), fov_el=np.deg2rad(26.0))
+    pixel = PixelEngine(n_az=640, n_el=640, fov_az=np.deg2rad(26.0), fov_el=np.deg2rad(26.0), model="lambertian")
     e_pix = pixel.echoes(anim, RADAR, 0)
     path = PathEngine(max_depth=1, samples_per_src=4_000_000, max_num_paths_per_src=2_000_000)
     e_path = path.echoes(anim, RADAR, 0)

@@ -108,34 +108,72 @@ extra visibility test is needed for the monostatic return).
 
 ``scattering_coefficient`` (engine option): ``None`` uses every material's own :math:`S` (the
 default, consistent with the path engine; Sionna's and the ITU materials default to
-:math:`S = 0`, which the pixel engine does not see at all -- a warning says so); a number in
+:math:`S = 0`, which the Lambertian model does not see at all -- a warning says so); a number in
 :math:`[0, 1]` replaces :math:`S` for every material (the paper's render, where every surface is
 a Lambertian scatterer).
 
-Specular reflection: not modelled (decision)
---------------------------------------------
-The pixel engine models only the diffuse share :math:`S^2` of the reflected power, the paper's
-(Lambertian) pixel model. The specular share :math:`1 - S^2` is a mirror reflection: it returns
-to the radar only from points whose surface normal points back at the radar, a set of measure
-zero on the pixel grid, and its strength comes from the coherent sum over the whole facet, which
-pixels of centimetres cannot resolve at a wavelength of 3.9 mm. The path engine computes it with
-the image method: a metal plate facing the radar at range :math:`R` returns like a target of
-:math:`\sigma = \pi R^2` (geometric optics; 19 dBsm at 5 m, capped at the physical-optics
-:math:`4\pi A^2/\lambda^2` = 59 dBsm for :math:`A` = 1 m\ :sup:`2` in the far field), while the
-same plate as a Lambertian surface has :math:`\sum_p\sigma_p \approx 4AS^2\Gamma^2` = 6 dBsm
-for :math:`S = \Gamma = 1`. Measured (walk-77ghz, 1 m metal plate facing the radar, sum over the
-12 channels): path engine (specular) -55.4 dB at 2 m and -63.4 dB at 5 m; pixel engine with
-``scattering_coefficient=1``: -61.6 dB and -76.5 dB, i.e. 6 and 13 dB less, growing with range.
-Consequences for pixel-vs-path comparisons:
+Diffuse phase: one random scatterer per surface cell
+----------------------------------------------------
+A pixel of centimetres holds many roughness cells of a wavelength (3.9 mm) with unrelated phases;
+their sum is a random phasor whose *power* is the pixel's :math:`|a|^2` above. With
+``diffuse_phase="random"`` (default) every pixel's contribution is :math:`|a|\,e^{j\phi}` with
+:math:`\phi` the phase of the surface cell it hit (:func:`~sionnafmcw.diffuse.scatterer_phases`:
+a hash of object name, triangle and barycentric cell of ``diffuse_cell_size``, :math:`\lambda/4`
+by default; the cells per edge are fixed from the frame-0 mesh). The phase is fixed to the
+surface point, so it moves with the body, is the same for every Tx/Rx pair (one set of
+scatterers for the whole array: the MIMO phase between channels is the geometry's) and for every
+chirp, and a static surface keeps it from frame to frame. Neighbouring pixels then add in power,
+:math:`E|\sum_p a_p e^{j\phi_p}e^{-j2\pi f\tau_p}|^2 = \sum_p|a_p|^2`, whatever the pixel count
+(4x pixels move the mean clutter-removed map power by < 0.5 dB, ``tests/test_pixel_po.py``).
+``diffuse_phase="deterministic"`` is the paper's eq. (2) as published: real :math:`|a|`, so
+neighbours add coherently and the map power grows with the pixel count (about 6 dB per 4x
+pixels on a surface facing the radar, issue 11).
 
-* they are fair against the path engine with ``max_depth=1`` and either ``specular=False`` or
-  surfaces whose mirror echo misses the radar (tilted plates, curved or rough bodies); the
-  diffuse parts then agree in absolute power (0.01-0.02 dB measured, ``tests/test_pixel_engine.py``);
-* a smooth surface facing the radar (a wall straight ahead, a flat metal plate, a torso facet
-  normal to the line of sight) is a strong specular reflector in the path engine and a weak
-  diffuse one here; scenes dominated by glints (walls, corner reflectors, whose triple bounce
-  is absent too) differ by tens of dB, and multipath (target-floor-radar) is absent altogether;
-* a material with :math:`S = 0` (Sionna's default, every ITU material) is invisible here.
+Models: physical optics for the coherent echo (default) or the paper's Lambertian eq. (2)
+-----------------------------------------------------------------------------------------
+Sionna's material model splits the reflected power of a surface into a coherent (specular)
+share :math:`(1 - S^2)|\Gamma|^2` and a diffuse share :math:`S^2|\Gamma|^2`.
+
+``model="physical-optics"`` (default): the coherent share is the near-field physical-optics
+integral over the lit surface (:mod:`sionnafmcw.physical_optics`), the diffuse share the
+random-phase Lambertian pixels above; nothing is counted twice. The PO integral is evaluated on
+a second render, per object (:meth:`PixelEngine._po_samples`): an equiangular grid over the
+object's angular box (:func:`angular_box`) with the step of
+:func:`~sionnafmcw.physical_optics.render_resolution` for its size, its farthest range, its
+curvature radius and, where the frame XML asks for facet normals (``face_normals``, as every
+scene written by sionnafmcw does), a sixth of its facet size (:func:`surface_figures`,
+:data:`FACET_SHARE`); all
+objects' rays in one cast from the phase centre (``ray_intersect``: the hit's shading normal, the
+interpolated vertex normal where the mesh has them, else the facet normal); a ray keeps its hit
+only on the object it was cast for. Each hit is a :class:`~sionnafmcw.physical_optics.SurfaceSamples`
+sample (area :math:`r^2\Delta\Omega/\cos\theta_i`, footprint edges for the in-sample phase,
+velocity interpolated as below, the material's co-polar slab reflection coefficient
+:math:`\Gamma = r_{TE}(\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2 - r_{TM}(1 - (\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2)`,
+:func:`copolar_reflection`, scaled by :math:`\sqrt{1 - S^2}`), and
+:func:`~sionnafmcw.physical_optics.po_echoes` gives every Tx/Rx pair its exact delay, Doppler,
+element gains and obliquity (near-field exact whatever ``array_model``). The PO contributions
+follow the pixels' in the :class:`~sionnafmcw.echoes.Echoes`. Measured through the engine
+(``tests/test_pixel_po.py``): metal plates of 0.1 and 0.2 m facing the radar at 2-20 m within
+0.03 dB of the near-field Fresnel PO, a plate split in 2 or 128 triangles the same echo, a
+faceted sphere :math:`\pi r^2` within 1 dB.
+
+Why PO is the default (decision, issue 11): the Lambertian pixels alone miss the coherent share,
+which is the dominant echo of every smooth surface facing the radar -- a 0.1 m metal plate at
+5 m is 18.7 dBsm by PO and invisible (:math:`S = 0`) or :math:`4AS^2` = -14 dBsm to them, a
+torso facet normal to the line of sight likewise -- and PO, unlike the path engine's
+geometric-optics mirror, is right for finite and curved surfaces. ``model="lambertian"`` keeps
+the paper's eq. (2) (every pixel a Lambertian scatterer of the diffuse share only; with
+``diffuse_phase="deterministic"`` exactly as published) to reproduce the paper. In that model:
+
+* pixel-vs-path comparisons are fair against the path engine with ``max_depth=1`` and either
+  ``specular=False`` or surfaces whose mirror echo misses the radar; the diffuse parts then
+  agree in absolute power (0.01-0.02 dB measured, ``tests/test_pixel_engine.py``);
+* a smooth surface facing the radar is a weak diffuse reflector (a 1 m metal plate at 2 / 5 m
+  with ``scattering_coefficient=1``: 6 / 13 dB below the path engine's mirror, walk-77ghz);
+* a material with :math:`S = 0` (Sionna's default, every ITU material) is invisible.
+
+Neither model has multipath (target-floor-radar) or the triple bounce of a corner reflector:
+the pixel engine is single-bounce.
 
 Array phase
 -----------
@@ -198,7 +236,7 @@ from __future__ import annotations
 
 import time
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -206,10 +244,12 @@ from ..animation import Animation, RadarPose
 from ..antenna import antenna_gain, check_pattern, direction_angles
 from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
 from ..echoes import Echoes
+from ..diffuse import cells_per_edge, scatterer_phases
 from ..electromagnetics import (
-    copolar_fraction, dot, lambertian_pattern, reflection_power, unit,
+    copolar_fraction, dot, lambertian_pattern, reflection_power, slab_reflection_coefficients, unit,
     vertical_polarisation,
 )
+from ..physical_optics import SurfaceSamples, angular_grid_steps, po_echoes, render_resolution, render_samples
 from ..geometry import rotation_matrix
 from ..array import phase_centre
 from ..sionna_rt import LambertianPattern, dr, mi
@@ -346,6 +386,130 @@ class PixelRender:
         return out.reshape(self.grid.n_el, self.grid.n_az)
 
 
+# ---------------------------------------------------------------------------------------- PO render helpers
+#: Share of a faceted mesh's edge length given to ``render_resolution(facet_size=...)``, whose rule
+#: is then s <= edge / 6. Measured through the engine on a 0.1 m metal sphere of 4.9 mm facets at
+#: 2-20 m against the independent triangle quadrature (tests/po_quadrature.py): s = edge / 3 is
+#: -0.9 to +0.3 dB off, edge / 6 within 0.05 dB, edge / 12 no closer.
+FACET_SHARE = 0.5
+#: Dihedral angle (rad) above which an edge is a geometric edge (a box's, a trihedral's, a slab's rim),
+#: not a sampled curvature: such edges enter neither the curvature radius nor the facet size.
+EDGE_ANGLE = np.deg2rad(30.0)
+
+@dataclass(frozen=True)
+class SurfaceFigures:
+    r"""What the PO render and the diffuse phases need to know of one mesh (from its frame-0 geometry).
+
+    ``cells [F]``: barycentric quantisation steps per triangle for :func:`~sionnafmcw.diffuse.scatterer_phases`
+    (``ceil(longest edge / cell size)``, fixed at frame 0 so a surface cell keeps its phase while the
+    mesh deforms); ``curvature_radius`` (m): the 10th percentile of :math:`\rho = \ell/\alpha` over
+    the edges that sample a curved surface (length :math:`\ell`, dihedral angle
+    :math:`10^{-3} < \alpha \le` :data:`EDGE_ANGLE`; sharper edges are the geometry's own, a box's or
+    a slab's; ``inf`` when there are none: flat pieces); ``facet_size`` (m): the median length of
+    those edges (None when there are none, or when the mesh's shading normals are interpolated, so
+    samples need not stay on one facet).
+    """
+
+    cells: np.ndarray
+    curvature_radius: float
+    facet_size: float | None
+
+
+def surface_figures(vertices, faces, cell_size: float, face_normals: bool = True) -> SurfaceFigures:
+    """:class:`SurfaceFigures` of a triangle mesh (``vertices [V, 3]`` m, ``faces [F, 3]``)."""
+    v = np.asarray(vertices, float)
+    f = np.asarray(faces, dtype=np.int64)
+    corners = v[f]                                              # [F, 3, 3]
+    edge = np.linalg.norm(corners - np.roll(corners, -1, axis=1), axis=-1)   # [F, 3]
+    cells = cells_per_edge(edge.max(axis=1) if len(f) else np.zeros(0), cell_size)
+    normal = np.cross(corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0])
+    norm = np.linalg.norm(normal, axis=1, keepdims=True)
+    normal = np.divide(normal, norm, out=np.zeros_like(normal), where=norm > 0)
+    pairs = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    owner = np.tile(np.arange(len(f)), 3)
+    key = np.sort(pairs, axis=1)
+    order = np.lexsort((key[:, 1], key[:, 0]))
+    key, owner = key[order], owner[order]
+    shared = np.nonzero(np.all(key[1:] == key[:-1], axis=1))[0]
+    if shared.size:
+        a, b = owner[shared], owner[shared + 1]
+        angle = np.arccos(np.clip(np.abs(dot(normal[a], normal[b])), -1.0, 1.0))   # orientation-free
+        length = np.linalg.norm(v[key[shared, 0]] - v[key[shared, 1]], axis=1)
+        creased = (angle > 1e-3) & (angle <= EDGE_ANGLE)
+    else:
+        creased = np.zeros(0, dtype=bool)
+    if not np.any(creased):
+        return SurfaceFigures(cells, float("inf"), None)
+    rho = float(np.percentile(length[creased] / angle[creased], 10))
+    facet = float(np.median(length[creased])) if face_normals else None
+    return SurfaceFigures(cells, rho, facet)
+
+
+def angular_box(points_local, hit_azimuth=(), hit_elevation=(), pad=(0.0, 0.0)):
+    """Azimuth/elevation box ``(az0, az1, el0, el1)`` (rad, radar frame) that holds an object.
+
+    Where every vertex ``points_local [V, 3]`` (relative to the phase centre, radar frame) is in
+    front (``x > 0``, the angles do not wrap), the box of the vertices, widened on a side only where
+    the coarse render's hits on the object (``hit_azimuth``, ``hit_elevation``) reach beyond it
+    (a big facet's outline bulges beyond its vertices' box), then by ``pad`` (one coarse pixel: the
+    outline lies up to a pixel beyond the outermost hit). Otherwise the hits' box padded by ``pad``.
+    None when neither exists. The vertex box is kept exact so that a grid can tile it
+    (:func:`box_grid`): a rectangular facet's outline then falls on pixel edges.
+    """
+    p = np.asarray(points_local, float)
+    hits = len(hit_azimuth) > 0
+    if hits:
+        h = (float(np.min(hit_azimuth)), float(np.max(hit_azimuth)),
+             float(np.min(hit_elevation)), float(np.max(hit_elevation)))
+    if p.size and np.all(p[:, 0] > 0):
+        az = np.arctan2(p[:, 1], p[:, 0])
+        el = np.arctan2(p[:, 2], np.hypot(p[:, 0], p[:, 1]))
+        box = [float(az.min()), float(az.max()), float(el.min()), float(el.max())]
+        if hits:
+            if h[0] < box[0]:
+                box[0] = h[0] - pad[0]
+            if h[1] > box[1]:
+                box[1] = h[1] + pad[0]
+            if h[2] < box[2]:
+                box[2] = h[2] - pad[1]
+            if h[3] > box[3]:
+                box[3] = h[3] + pad[1]
+        return tuple(box)
+    if hits:
+        return h[0] - pad[0], h[1] + pad[0], h[2] - pad[1], h[3] + pad[1]
+    return None
+
+
+def box_grid(box, step: float):
+    """Equiangular pixels tiling ``box = (az0, az1, el0, el1)`` (rad) with steps of at most ``step``:
+    pixel-centre az, el ``[K]`` and the steps ``(d_az, d_el)`` (rad)."""
+    az0, az1, el0, el1 = box
+    n_az = max(1, int(np.ceil((az1 - az0) / step)))
+    n_el = max(1, int(np.ceil((el1 - el0) / step)))
+    d_az, d_el = (az1 - az0) / n_az, (el1 - el0) / n_el
+    az = az0 + (np.arange(n_az) + 0.5) * d_az
+    el = el0 + (np.arange(n_el) + 0.5) * d_el
+    el, az = np.meshgrid(el, az, indexing="ij")
+    return az.ravel(), el.ravel(), (d_az, d_el)
+
+
+def copolar_reflection(cos_theta, eta, thickness, wavelength, k_in, normal, e_t) -> np.ndarray:
+    r"""Complex co-polar reflection coefficient of the monostatic echo, :math:`\Gamma = r_{TE}
+    (\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2 - r_{TM}(1 - (\hat{\mathbf e}_t\cdot\hat{\mathbf s})^2)`
+    (:mod:`sionnafmcw.physical_optics`, "Dielectrics"; Sionna's slab coefficients,
+    :func:`~sionnafmcw.electromagnetics.slab_reflection_coefficients`; :math:`\hat{\mathbf s}` the
+    TE direction :math:`\hat{\mathbf k}_{in}\times\hat{\mathbf n}`, any transverse direction at
+    normal incidence). ``k_in``, ``normal``, ``e_t`` ``[P, 3]``; the others ``[P]`` or scalars.
+    """
+    r_te, r_tm = slab_reflection_coefficients(np.clip(cos_theta, 0.0, 1.0), eta, thickness, wavelength)
+    s_hat = np.cross(k_in, normal)
+    s_norm = np.linalg.norm(s_hat, axis=-1, keepdims=True)
+    fallback = np.cross(k_in, np.where(np.abs(k_in[..., :1]) < 0.9, [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]))
+    s_hat = unit(np.where(s_norm > 1e-9, s_hat, fallback))
+    te = dot(e_t, s_hat) ** 2
+    return r_te * te - r_tm * (1.0 - te)
+
+
 @dataclass
 class _Material:
     name: str
@@ -364,11 +528,12 @@ class _State:
     names: list                     # object names, index = local object index
     index_by_id: dict               # Sionna object_id -> local object index
     materials: list                 # local object index -> _Material
+    surfaces: dict = field(default_factory=dict)   # name -> SurfaceFigures (frame-0 mesh, filled on first use)
 
 
 # ---------------------------------------------------------------------------------------- engine
 class PixelEngine(Engine):
-    """The scene rendered from the radar; each hit pixel a point target (see the module docstring).
+    r"""The scene rendered from the radar; each hit pixel a point target (see the module docstring).
 
     Parameters
     ----------
@@ -384,23 +549,56 @@ class PixelEngine(Engine):
         [0, 1]: that :math:`S` for every material.
     vertex_doppler : bool
         Use per-vertex velocities from the PLYs where present (else the manifest velocity).
+    model : str
+        ``"physical-optics"`` (default): near-field PO for the coherent share :math:`(1 - S^2)|\Gamma|^2`
+        on a per-object render plus the random-phase Lambertian pixels for the diffuse share
+        :math:`S^2|\Gamma|^2`; ``"lambertian"``: the pixels only (the paper's eq. (2)).
+    diffuse_phase : str
+        ``"random"`` (default): each pixel's diffuse contribution carries the phase of the surface
+        cell it hit (:func:`~sionnafmcw.diffuse.scatterer_phases`); ``"deterministic"``: none (the
+        paper's eq. (2); the map power then grows with the pixel count).
+    diffuse_cell_size : float or None
+        Size (m) of the surface cells of the diffuse phases; None: :math:`\lambda/4` of the radar.
+    po_samples_across : int
+        Least number of PO samples across an object (:func:`~sionnafmcw.physical_optics.render_resolution`).
+    po_max_rays : int
+        Most PO rays per object and frame; a finer rule is coarsened to it with a warning.
     track_kernels : bool
         Record Dr.Jit kernel launches per frame in :attr:`stats`.
 
     Notes
     -----
     :attr:`stats` figures: ``trace_seconds`` (the ray cast), ``num_hits`` (pixels that hit a
-    surface), ``num_contributions`` (hit pixels with a non-zero echo).
+    surface), ``num_contributions`` (hit pixels with a non-zero echo, plus the PO samples),
+    ``num_po_rays`` and ``num_po_samples`` (the PO render's rays and its hits on the objects it was
+    cast for; 0 in the Lambertian model).
     """
 
     name = "pixel"
-    FIXED_SETTINGS = {"scattering": "diffuse", "specular": False, "max_depth": 1}
+    FIXED_SETTINGS = {"max_depth": 1}
     ARRAY_MODELS = ("plane-wave", "exact")
+    MODELS = ("physical-optics", "lambertian")
+    DIFFUSE_PHASES = ("random", "deterministic")
 
     def __init__(self, n_az: int = 128, n_el: int = 64, fov_az: float = float(np.deg2rad(120.0)),
                  fov_el: float = float(np.deg2rad(60.0)), array_model: str = "plane-wave",
                  scattering_coefficient: float | None = None, vertex_doppler: bool = True,
+                 model: str = "physical-optics", diffuse_phase: str = "random",
+                 diffuse_cell_size: float | None = None, po_samples_across: int = 16, po_max_rays: int = 2_000_000,
                  track_kernels: bool = True):
+        if model not in self.MODELS:
+            raise PixelEngineError(f"PixelEngine: model={model!r} is unknown; choose one of {', '.join(self.MODELS)}")
+        if diffuse_phase not in self.DIFFUSE_PHASES:
+            raise PixelEngineError(f"PixelEngine: diffuse_phase={diffuse_phase!r} is unknown; choose one of "
+                                   f"{', '.join(self.DIFFUSE_PHASES)}")
+        if diffuse_cell_size is not None and (isinstance(diffuse_cell_size, bool) or not isinstance(
+                diffuse_cell_size, (int, float, np.integer, np.floating)) or not np.isfinite(diffuse_cell_size)
+                or diffuse_cell_size <= 0):
+            raise PixelEngineError(f"PixelEngine: diffuse_cell_size must be None or a positive length in m, "
+                                   f"got {diffuse_cell_size!r}")
+        for name, value in (("po_samples_across", po_samples_across), ("po_max_rays", po_max_rays)):
+            if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
+                raise PixelEngineError(f"PixelEngine: {name} must be an integer >= 1, got {value!r}")
         if array_model not in self.ARRAY_MODELS:
             raise PixelEngineError(
                 f"PixelEngine: array_model={array_model!r} is unknown; choose one of {', '.join(self.ARRAY_MODELS)}")
@@ -418,6 +616,12 @@ class PixelEngine(Engine):
         self.array_model = array_model
         self.scattering_coefficient = scattering_coefficient
         self.vertex_doppler = bool(vertex_doppler)
+        self.model = model
+        self.diffuse_phase = diffuse_phase
+        self.diffuse_cell_size = None if diffuse_cell_size is None else float(diffuse_cell_size)
+        self.po_samples_across = int(po_samples_across)
+        self.po_max_rays = int(po_max_rays)
+        self.last_po_samples: SurfaceSamples | None = None
         self._directions = self.grid.directions().reshape(-1, 3)
         self._solid_angles = self.grid.solid_angles().reshape(-1)
         az, el = self.grid.angles()
@@ -427,7 +631,13 @@ class PixelEngine(Engine):
     def _settings(self) -> dict:
         return {"n_az": self.grid.n_az, "n_el": self.grid.n_el, "fov_az": float(self.grid.fov_az),
                 "fov_el": float(self.grid.fov_el), "array_model": self.array_model,
-                "scattering_coefficient": self.scattering_coefficient, "vertex_doppler": self.vertex_doppler}
+                "scattering_coefficient": self.scattering_coefficient, "vertex_doppler": self.vertex_doppler,
+                "model": self.model, "diffuse_phase": self.diffuse_phase,
+                "diffuse_cell_size": self.diffuse_cell_size, "po_samples_across": self.po_samples_across,
+                "po_max_rays": self.po_max_rays,
+                # what the model computes (constants of the model, for pixel-vs-path comparisons)
+                "scattering": "diffuse" if self.model == "lambertian" else "physical-optics+diffuse",
+                "specular": self.model == "physical-optics"}
 
     # ------------------------------------------------------------------ set-up
     def _material(self, obj_name: str, mat) -> _Material:
@@ -458,12 +668,15 @@ class PixelEngine(Engine):
             index_by_id[int(obj.object_id)] = len(names)
             names.append(name)
             materials.append(self._material(name, obj.radio_material))
-        if materials and all(m.scattering_coefficient == 0 for m in materials):
+        if self.model == "lambertian" and materials and all(m.scattering_coefficient == 0 for m in materials):
             warnings.warn(
                 f"PixelEngine: every material of {animation.frames[0].xml} has scattering_coefficient 0; the pixel "
-                "engine models diffuse scattering only, so it sees nothing. Give the materials a "
-                "scattering_coefficient or set PixelEngine(scattering_coefficient=...).", stacklevel=3)
+                "engine's Lambertian model sees diffuse scattering only, so it sees nothing. Give the materials a "
+                "scattering_coefficient, set PixelEngine(scattering_coefficient=...) or use "
+                "model='physical-optics'.", stacklevel=3)
         self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
+        if self.model == "physical-optics":   # the PO cast's kernels (surface interaction), compiled while loading
+            self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (7, 1)), shading_normals=True)
         return _State(names, index_by_id, materials)
 
     def _check_radar(self, radar) -> None:
@@ -474,20 +687,36 @@ class PixelEngine(Engine):
 
     # ------------------------------------------------------------------ ray casting
     @staticmethod
-    def _cast(scene, origin, directions):
-        """First hits of rays from ``origin`` along ``directions [K, 3]`` (world): t, object id, triangle, barycentrics."""
+    def _cast(scene, origin, directions, shading_normals=False):
+        """First hits of rays from ``origin`` along ``directions [K, 3]`` (world): t, object id, triangle, barycentrics.
+
+        ``shading_normals``: also Mitsuba's shading normal of each hit (``ray_intersect``'s surface
+        interaction: the interpolated vertex normal where the mesh has them, else the facet
+        normal), appended as a sixth result ``[K, 3]`` (world, float64, unit).
+        """
         k = directions.shape[0]
         o = mi.Point3f(*[_jit_float(np.full(k, origin[i])) for i in range(3)])
         ray = mi.Ray3f(o, mi.Vector3f(*[_jit_float(directions[:, i]) for i in range(3)]))
         pi = scene.mi_scene.ray_intersect_preliminary(ray, coherent=True)
         valid = pi.is_valid()
         shape_id = dr.reinterpret_array(mi.UInt32, pi.shape)
-        dr.eval(pi.t, pi.prim_index, pi.prim_uv, shape_id, valid)
+        outputs = [pi.t, pi.prim_index, pi.prim_uv, shape_id, valid]
+        if shading_normals:
+            si = pi.compute_surface_interaction(ray)
+            n = si.sh_frame.n
+            outputs.append(n)
+        dr.eval(*outputs)
         uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
                        np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
-        return (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
-                np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64),
-                uv)
+        result = (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
+                  np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64),
+                  uv)
+        if shading_normals:
+            normal = np.stack([np.asarray(c.numpy(), dtype=np.float64) for c in (n.x, n.y, n.z)], axis=-1)
+            norm = np.linalg.norm(normal, axis=-1, keepdims=True)
+            normal = np.divide(normal, norm, out=np.zeros_like(normal), where=norm > 0)
+            result = result + (normal,)
+        return result
 
     # ------------------------------------------------------------------ public
     def render(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> PixelRender:
@@ -510,13 +739,164 @@ class PixelEngine(Engine):
         trace_seconds = time.perf_counter() - t_cast
         render, echoes = self._to_echoes(frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv)
         self.last_render = render
-        return echoes, {"trace_seconds": trace_seconds, "num_hits": render.num_hits,
-                        "num_contributions": echoes.num_contributions}
+        figures = {"trace_seconds": trace_seconds, "num_hits": render.num_hits, "num_po_rays": 0, "num_po_samples": 0}
+        self.last_po_samples = None
+        if self.model == "physical-optics":
+            samples, num_rays, po_seconds = self._po_samples(frame, animation, radar, rotation, centre, render)
+            self.last_po_samples = samples
+            figures.update(num_po_rays=num_rays, num_po_samples=samples.num_samples,
+                           trace_seconds=trace_seconds + po_seconds)
+            if samples.num_samples:
+                echoes = Echoes.concatenate([echoes, po_echoes(samples, radar, pose.position, pose.orientation)])
+        figures["num_contributions"] = echoes.num_contributions
+        return echoes, figures
 
     def close(self) -> None:
         """Drop the loaded scene and the last render."""
         super().close()
         self.last_render = None
+        self.last_po_samples = None
+
+    # ------------------------------------------------------------------ per-object figures
+    def _surface(self, animation: Animation, name: str, wavelength: float) -> SurfaceFigures:
+        """:class:`SurfaceFigures` of object ``name`` (frame-0 geometry of the loaded scene, computed once)."""
+        state = self._state
+        if name not in state.surfaces:
+            info = animation.scene(0).shapes.get(name)
+            if info is not None and info.type == "ply":
+                # frame 0's PLY whatever frame the engine starts with (workers of a data set start
+                # anywhere): the same cells, so the same phases, for every frame of the animation
+                mesh = animation.mesh(0, name)
+                vertices, faces, face_normals = mesh.vertices, mesh.faces, bool(info.face_normals)
+            else:   # static non-PLY shape: as Mitsuba loaded it
+                vertices, faces, face_normals = self._loaded.vertices[name], self._loaded.faces[name], True
+            cell = self.diffuse_cell_size if self.diffuse_cell_size is not None else wavelength / 4
+            state.surfaces[name] = surface_figures(vertices, faces, cell, face_normals)
+        return state.surfaces[name]
+
+    def _hit_geometry(self, animation, frame, obj, prim, uv):
+        """World position (float64, from the triangle and barycentrics), facet normal and velocity of hits
+        on local objects ``obj [P]``, triangles ``prim [P]``, barycentrics ``uv [P, 2]``."""
+        state, loaded = self._state, self._loaded
+        num = obj.size
+        position, normal, velocity = np.empty((num, 3)), np.empty((num, 3)), np.zeros((num, 3))
+        fr = animation.frame(frame)
+        for k, name in enumerate(state.names):
+            sel = np.nonzero(obj == k)[0]
+            if sel.size == 0:
+                continue
+            tri = loaded.faces[name][prim[sel]]
+            verts = loaded.vertices[name]
+            b1, b2 = uv[sel, 0], uv[sel, 1]
+            w = np.stack([1.0 - b1 - b2, b1, b2], axis=-1)
+            v0, v1, v2 = verts[tri[:, 0]], verts[tri[:, 1]], verts[tri[:, 2]]
+            position[sel] = interpolate(verts, tri, w)
+            normal[sel] = unit(np.cross(v1 - v0, v2 - v0))
+            vfield = loaded.vertex_velocity.get(name) if self.vertex_doppler else None
+            if vfield is not None:
+                velocity[sel] = interpolate(vfield, tri, w)
+            else:
+                velocity[sel] = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
+        return position, normal, velocity
+
+    def _phases(self, animation, obj, prim, uv, wavelength) -> np.ndarray:
+        """Random phases of the diffuse scatterers hit (:func:`~sionnafmcw.diffuse.scatterer_phases`)."""
+        names = np.array(self._state.names, dtype=object)
+        cells = np.ones(obj.size, dtype=np.int64)
+        for k, name in enumerate(self._state.names):
+            sel = np.nonzero(obj == k)[0]
+            if sel.size:
+                cells[sel] = self._surface(animation, name, wavelength).cells[prim[sel]]
+        return scatterer_phases(names[obj].astype(str), prim, uv, cells)
+
+    # ------------------------------------------------------------------ physical optics
+    def _po_samples(self, frame, animation, radar, rotation, centre, render):
+        r"""The PO render of the frame: :class:`SurfaceSamples` of every object with a coherent share.
+
+        Per object (material with :math:`S < 1`): an equiangular grid over its angular box
+        (:func:`angular_box`: its vertices' box where it lies in front, united with the coarse
+        render's hits on it padded by one pixel; clipped to the field of view) with the step
+        :func:`~sionnafmcw.physical_optics.render_resolution` of its size (bounding-box diagonal), its
+        farthest vertex's range (the finest step the rule asks anywhere on it), its curvature radius
+        and, with facet normals, its facet size (:func:`surface_figures`). All objects' rays go in
+        one cast from the phase centre; a ray keeps its hit only on the object it was cast for (the
+        others have their own grid; occlusion is the cast's). Returns the samples, the ray count and
+        the cast time.
+        """
+        state, loaded = self._state, self._loaded
+        wavelength = SPEED_OF_LIGHT / radar.fc
+        grid = self.grid
+        half_az, half_el = grid.fov_az / 2, grid.fov_el / 2
+        uniq, inverse = np.unique(np.asarray(render.labels, dtype=str), return_inverse=True)
+        hit_obj = np.array([state.names.index(n) for n in uniq], dtype=np.int64)[inverse.reshape(-1)] \
+            if render.num_hits else np.zeros(0, dtype=np.int64)
+        dirs, owner, steps = [], [], []
+        for k, name in enumerate(state.names):
+            if state.materials[k].scattering_coefficient >= 1.0:
+                continue
+            verts = loaded.vertices[name]
+            local = (verts - centre) @ rotation
+            on = hit_obj == k
+            box = angular_box(local, render.azimuth[on], render.elevation[on], (grid.d_az, grid.d_el))
+            if box is None:
+                continue
+            box = (max(box[0], -half_az), min(box[1], half_az), max(box[2], -half_el), min(box[3], half_el))
+            if box[0] >= box[1] or box[2] >= box[3]:
+                continue
+            surface = self._surface(animation, name, wavelength)
+            extent = float(np.linalg.norm(np.ptp(verts, axis=0)))
+            distance = float(np.linalg.norm(local, axis=1).max())
+            if extent <= 0 or distance <= 0:
+                continue
+            facet = None if surface.facet_size is None else FACET_SHARE * surface.facet_size
+            step = render_resolution(extent, distance, wavelength, curvature_radius=surface.curvature_radius,
+                                     samples_across=self.po_samples_across, facet_size=facet)
+            count = np.ceil((box[1] - box[0]) / step) * np.ceil((box[3] - box[2]) / step)
+            if count > self.po_max_rays:
+                coarse = step * np.sqrt(count / self.po_max_rays) * 1.001
+                warnings.warn(f"PixelEngine: the PO render of {name!r} in frame {frame} needs {int(count)} rays "
+                              f"({step * 1e3:.3g} mrad steps); coarsened to {coarse * 1e3:.3g} mrad "
+                              f"(po_max_rays={self.po_max_rays}), so its PO echo is approximate", stacklevel=4)
+                step = coarse
+            az, el, (d_az, d_el) = box_grid(box, step)
+            dirs.append(np.stack([np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)], axis=-1))
+            owner.append(np.full(az.size, k, dtype=np.int64))
+            steps.append(np.tile([d_az, d_el], (az.size, 1)))
+        if not dirs:
+            return SurfaceSamples(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)), 0, 0.0
+        local_dirs, owner, steps = np.concatenate(dirs), np.concatenate(owner), np.concatenate(steps)
+        t0 = time.perf_counter()
+        valid, _, shape_id, prim, uv, sh_normal = self._cast(loaded.scene, centre, local_dirs @ rotation.T,
+                                                            shading_normals=True)
+        seconds = time.perf_counter() - t0
+        ids = np.array(sorted(state.index_by_id), dtype=np.int64)
+        local_index = np.array([state.index_by_id[i] for i in ids], dtype=np.int64)
+        where = np.clip(np.searchsorted(ids, shape_id), 0, len(ids) - 1)
+        keep = valid & (ids[where] == shape_id)
+        keep &= local_index[where] == owner
+        idx = np.nonzero(keep)[0]
+        obj, prim, uv = owner[idx], prim[idx], uv[idx]
+        position, _, velocity = self._hit_geometry(animation, frame, obj, prim, uv)
+        normal = sh_normal[idx]
+        offset = position - centre
+        distance = np.linalg.norm(offset, axis=1)
+        u = offset / distance[:, None]
+        el = np.arcsin(np.clip(local_dirs[idx, 2], -1.0, 1.0))
+        d_az, d_el = steps[idx, 0], steps[idx, 1]
+        solid = d_az * (np.sin(el + d_el / 2) - np.sin(el - d_el / 2))
+        step_az, step_el = angular_grid_steps(local_dirs[idx], 1.0, 1.0, rotation)
+        step_az, step_el = step_az * d_az[:, None], step_el * d_el[:, None]
+        mats = state.materials
+        eta = np.array([m.eta for m in mats], dtype=complex)[obj]
+        thick = np.array([m.thickness for m in mats])[obj]
+        s_coef = np.array([m.scattering_coefficient for m in mats])[obj]
+        e_t = vertical_polarisation(u, rotation)
+        gamma = copolar_reflection(np.abs(dot(normal, u)), eta, thick, wavelength, u, normal, e_t)
+        labels = np.array(state.names, dtype=object)[obj].astype(str)
+        samples = render_samples(centre, u, distance, normal, solid, step_az, step_el, velocity=velocity,
+                                 reflection=gamma, scattering_coefficient=s_coef, object_id=obj, triangle=prim,
+                                 barycentric=uv, labels=labels)
+        return samples.select(samples.area > 0), int(local_dirs.shape[0]), seconds
 
     # ------------------------------------------------------------------ hits -> Echoes
     def _to_echoes(self, frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv):
@@ -541,26 +921,7 @@ class PixelEngine(Engine):
             return render, echoes
 
         # ---- geometry of the hits (float64): point from the triangle and barycentrics, face normal
-        position = np.empty((num, 3))
-        normal = np.empty((num, 3))
-        velocity = np.zeros((num, 3))
-        fr = animation.frame(frame)
-        for k, name in enumerate(state.names):
-            sel = np.nonzero(obj == k)[0]
-            if sel.size == 0:
-                continue
-            tri = loaded.faces[name][prim[pix[sel]]]
-            verts = loaded.vertices[name]
-            b1, b2 = uv[pix[sel], 0], uv[pix[sel], 1]
-            w = np.stack([1.0 - b1 - b2, b1, b2], axis=-1)
-            v0, v1, v2 = verts[tri[:, 0]], verts[tri[:, 1]], verts[tri[:, 2]]
-            position[sel] = interpolate(verts, tri, w)
-            normal[sel] = unit(np.cross(v1 - v0, v2 - v0))
-            field = loaded.vertex_velocity.get(name) if self.vertex_doppler else None
-            if field is not None:
-                velocity[sel] = interpolate(field, tri, w)
-            else:
-                velocity[sel] = np.asarray(fr.objects.get(name, np.zeros(3)), dtype=float)
+        position, normal, velocity = self._hit_geometry(animation, frame, obj, prim[pix], uv[pix])
         offset = position - centre
         rng = np.linalg.norm(offset, axis=-1)
         # direction to the hit point (world): the pixel centre's to float32 precision of the cast
@@ -626,7 +987,11 @@ class PixelEngine(Engine):
                              radial_velocity=dot(velocity, u), cos_incidence=cos_i, rcs=rcs_mono, labels=labels,
                              contributes=contributes)
         keep = contributes
-        echoes = Echoes(amp[..., keep].astype(complex), tau[..., keep], doppler[..., keep], labels[keep])
+        a = amp[..., keep].astype(complex)
+        if self.diffuse_phase == "random" and np.any(keep):
+            # one scatterer per surface cell, the same phase for every element pair (module docstring)
+            a = a * np.exp(1j * self._phases(animation, obj[keep], prim[pix][keep], uv[pix][keep], wavelength))
+        echoes = Echoes(a, tau[..., keep], doppler[..., keep], labels[keep])
         return render, echoes
 
     def _monostatic_rcs(self, obj, mats, normal, u, centre, rotation, area, s_coef, kx, wavelength):
