@@ -242,7 +242,7 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
                        "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
                        "leakage_db": leakage_db,
                        "sionnafmcw_version": __version__},
-                wait=wait,
+                wait=wait, hold_lock=True,
             )
         done = store.done()
         todo = [f for f in indices if not done[f]]

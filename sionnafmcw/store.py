@@ -190,11 +190,13 @@ class RunStore:
     # ------------------------------------------------------------------ create / resume
     @classmethod
     def open(cls, path, radar, num_frames: int, object_names: list[str], attrs: dict,
-             wait: float = 0.0) -> "RunStore":
+             wait: float = 0.0, hold_lock: bool = False) -> "RunStore":
         """Create the store, or reopen it for resuming when its attributes equal ``attrs``.
 
+        The store's lock is taken while leftovers are swept and the store is created or checked;
         ``wait`` (s): how long to wait for another live writer of the store to finish
-        (:class:`RunStoreBusy` after that).
+        (:class:`RunStoreBusy` after that). ``hold_lock``: keep the lock until :meth:`close` (a
+        writer of frames, as :func:`~sionnafmcw.simulate`), else release it on return.
         """
         from .fs import LockBusy, LockFile, sweep_leftovers
 
@@ -218,11 +220,15 @@ class RunStore:
                 _create(path, radar, num_frames, object_names, attrs)
                 store = cls(zarr.open_group(str(path), mode="r+", zarr_format=3), path, lock)
                 store.created = True
-                return store
-            return cls(cls._resume(path, radar, num_frames, attrs), path, lock)
+            else:
+                store = cls(cls._resume(path, radar, num_frames, attrs), path, lock)
         except BaseException:
             lock.release()
             raise
+        if not hold_lock:
+            lock.release()
+            store.lock = None
+        return store
 
     @staticmethod
     def _resume(path: Path, radar, num_frames: int, attrs: dict) -> zarr.Group:

@@ -128,3 +128,84 @@ def test_errors_name_the_store_in_library_language(tmp_path):
         RunStore.open(path, RADAR, NUM_FRAMES, ["torso", "plate"],
                       attrs={"radar": RADAR.to_dict(), "radar_pose": POSE, "engine": {"engine": "path", "max_depth": 1},
                              "scene": "/scenes/x", "seed": 4, "noise": False})
+
+
+# ===================================================================================== crash safety (issue 14)
+ATTRS = {"radar": RADAR.to_dict(), "radar_pose": POSE, "engine": {"engine": "path", "max_depth": 1},
+         "scene": "/scenes/x", "seed": 3, "noise": False}
+
+
+def test_creation_is_atomic_and_sweeps_what_killed_writers_left(tmp_path):
+    """The store appears whole (every attribute in its zarr.json); temporary stores beside it and
+    ``*.partial`` chunk files inside it are removed by the next open; done frames are kept."""
+    import json
+
+    path = tmp_path / "run.zarr"
+    stale = tmp_path / ".run.zarr.partial-0123456789ab"  # a creation killed before its rename
+    (stale / "iq").mkdir(parents=True)
+    _write(path, done=(0, 1))
+    assert not stale.exists()
+    attrs = json.loads((path / "zarr.json").read_text())["attributes"]
+    assert attrs["format"] == FORMAT and {"radar", "radar_pose", "engine", "seed", "noise"} <= set(attrs)
+    partial = path / "iq" / "c" / "3" / "0" / "0" / "0" / "0.feedbeef.partial"  # a chunk write cut off
+    partial.parent.mkdir(parents=True)
+    partial.write_bytes(b"half")
+    store = RunStore.open(path, RADAR, NUM_FRAMES, ["torso", "plate"], attrs=ATTRS)
+    assert not partial.exists() and store.done().tolist() == [True, True, False, False, False]
+    assert list(tmp_path.iterdir()) == [path]  # no lock left: RunStore.open releases it unless told to hold it
+
+
+def test_a_store_cut_off_by_a_non_atomic_creation_is_replaced_but_never_one_with_done_frames(tmp_path):
+    import zarr
+
+    path = tmp_path / "run.zarr"
+    group = zarr.open_group(str(path), mode="w-", zarr_format=3)  # what an old, killed creation left
+    group.create_array("frame_done", shape=(NUM_FRAMES,), dtype="bool", fill_value=False)
+    group.attrs["format"] = FORMAT  # half of the attributes
+    _write(path, done=(2,))
+    assert open_run(path).done_frames.tolist() == [2]
+    group = zarr.open_group(str(path), mode="r+", zarr_format=3)
+    group.attrs.update({"radar": None})  # damaged attributes, but a frame is done: not ours to discard
+    with pytest.raises(RunStoreError, match="different 'radar'"):
+        RunStore.open(path, RADAR, NUM_FRAMES, ["torso", "plate"], attrs=ATTRS)
+    assert open_run(path).done_frames.tolist() == [2]
+
+
+def test_the_lock_refuses_a_live_writer_and_takes_over_a_dead_one(tmp_path):
+    import json
+    import os
+    import socket
+    import subprocess
+    import sys
+
+    from sionnafmcw.store import RunStoreBusy
+
+    path = _write(tmp_path / "run.zarr", done=(0,))
+    lock = tmp_path / ".run.zarr.lock"
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": os.getppid()}))  # alive
+    with pytest.raises(RunStoreBusy, match=rf"held by process {os.getppid()} on this machine"):
+        RunStore.open(path, RADAR, NUM_FRAMES, ["torso", "plate"], attrs=ATTRS)
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    lock.write_text(json.dumps({"host": socket.gethostname(), "pid": int(dead.stdout)}))  # gone
+    store = RunStore.open(path, RADAR, NUM_FRAMES, ["torso", "plate"], attrs=ATTRS, hold_lock=True)
+    assert json.loads(lock.read_text())["pid"] == os.getpid()
+    store.close()
+    assert not lock.exists() and store.done()[0]
+
+
+def test_unreadable_frame_named_and_check_run_marks_it(tmp_path):
+    from sionnafmcw.store import CorruptFrameError, check_run
+
+    path = _write(tmp_path / "run.zarr")
+    (path / "iq" / "c" / "1" / "0" / "0" / "0" / "0").write_bytes(b"not a zstd frame")
+    run = open_run(path)
+    with pytest.raises(CorruptFrameError, match=r"frame 1 is marked done but cannot be read .*check_run") as err:
+        run.cube(1)
+    assert err.value.frame == 1 and "--" not in str(err.value)
+    np.testing.assert_array_equal(run.cube(3), np.full(run.cube(3).shape, 3 + 1j, np.complex64))
+    report = check_run(path, repair=False)
+    assert list(report["corrupt"]) == [1] and not report["repaired"]
+    assert open_run(path).done_frames.tolist() == [0, 1, 3]
+    report = check_run(path)
+    assert report["repaired"] and open_run(path).done_frames.tolist() == [0, 3]
+    assert check_run(path)["corrupt"] == {}
