@@ -66,7 +66,7 @@ def test_version(capsys):
 
 
 @pytest.mark.parametrize("command", [[], ["presets"], ["scene"], ["scene", "list"], ["scene", "build"],
-                                     ["simulate"], ["plot"], ["validate"], ["dataset"]])
+                                     ["simulate"], ["plot"], ["validate"], ["dataset"], ["check"]])
 def test_help_ends_with_an_example(capsys, command):
     status, out, _ = run_cli(capsys, *command, "--help")
     assert status == 0

@@ -355,3 +355,34 @@ def test_dataset_killed_resumes_bit_for_bit(tmp_path, monkeypatch, spec_file, sc
     assert not (out / ".lock").exists()
     done = [(Path(e["store"]).parent.name, e["frame"]) for e in fault_log(log) if e["point"] == "frame-done"]
     assert len(done) == len(set(done)), f"a frame was marked done twice: {sorted(done)}"
+
+
+def test_interrupt_inside_a_drjit_call_during_a_frame(tmp_path, plate, reference):
+    """A KeyboardInterrupt raised inside Dr.Jit during frame 1 (it comes back as Dr.Jit's RuntimeError)
+    stops simulate with SimulationInterrupted after 1 of 3 frames, a valid store that resumes bit for bit."""
+    import sionnafmcw.sionna_rt  # noqa: F401  (the LLVM set-up)
+    import drjit as dr
+    from drjit.llvm import UInt32
+
+    from sionnafmcw.engines import PixelEngine
+    from sionnafmcw.simulation import SimulationInterrupted, simulate
+
+    class CtrlCInFrameOne(PixelEngine):
+        def _frame_echoes(self, animation, radar, frame, pose):
+            if frame == 1:
+                def body(i):
+                    raise KeyboardInterrupt
+
+                dr.while_loop(state=(UInt32(0),), cond=lambda i: i < 10, body=body, mode="symbolic")
+            return super()._frame_echoes(animation, radar, frame, pose)
+
+    scene, radar = plate
+    out = tmp_path / "run.zarr"
+    with pytest.raises(SimulationInterrupted) as info:
+        simulate(scene, str(radar), engine=CtrlCInFrameOne(scattering_coefficient=0.5), out=out, seed=3,
+                 progress=False)
+    assert (info.value.done, info.value.total, info.value.exit_status) == (1, 3, 130)
+    assert open_run(out).done_frames.tolist() == [0] and leftovers(out) == []
+    simulate(scene, str(radar), engine=CtrlCInFrameOne.__mro__[1](scattering_coefficient=0.5), out=out, seed=3,
+             progress=False)
+    assert_same_store(reference["pixel"], out)
