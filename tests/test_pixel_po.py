@@ -46,8 +46,8 @@ def narrow_engine(half_angle, n=16, **kw):
 
 
 def split(echoes, engine):
-    """(diffuse pixels, PO samples) of the engine's echoes: the PO samples follow the pixels."""
-    num_po = engine.last_stats.num_po_samples
+    """(diffuse pixels, PO contributions) of the engine's echoes: the PO contributions follow the pixels."""
+    num_po = engine.last_stats.num_po_contributions
     n = echoes.num_contributions
     mask = np.arange(n) >= n - num_po
     return echoes.select(~mask), echoes.select(mask)
@@ -322,3 +322,33 @@ def test_diffuse_phases_do_not_depend_on_the_first_frame_rendered(tmp_path):
     assert late.last_stats.num_po_samples > 0 and e_first.num_contributions > 100
     np.testing.assert_array_equal(e_first.a, e_late.a)
     np.testing.assert_array_equal(e_first.tau, e_late.tau)
+
+
+def test_merged_po_contributions_give_the_same_radar_data(tmp_path):
+    """A 0.2 m metal plate at 5 m, facing the radar or turned 0.3 rad (72 dB weaker: an integral that
+    nearly cancels), receding at 1 m/s, walk-77ghz: merging the PO samples the radar cannot tell apart
+    (cells of 1/256 of the range, velocity and array-phase resolution) leaves every pair's channel at
+    the carrier unchanged (1e-9) and the synthesized cube within the merge's phase bound (2 pi / 256
+    at the ends of a chirp / CPI): its power within 0.1 dB, the difference 40 dB below it (measured
+    0.01 dB and -55 dB)."""
+    for yaw in (0.0, 0.3):
+        rot = rotation_matrix((yaw, 0.0, 0.0))
+        v, f = meshes.plate((0, 0, 0), (0.2, 0.2), normal=(-1, 0, 0), subdiv=2)
+        v = v @ rot.T + [5.0, 0, 0]
+        root = write_moving_mesh_animation(tmp_path / f"turned_{yaw}", lambda t: (v + [t, 0, 0], f), (1.0, 0, 0),
+                                           num_frames=1)
+        anim = load_animation(root)
+        cubes, counts, channels = [], [], []
+        for merge in (False, True):
+            engine = narrow_engine(0.04, po_merge=merge)
+            _, po = split(engine.echoes(anim, RADAR, 0), engine)
+            counts.append(po.num_contributions)
+            channels.append(channel(po.a, po.tau, RADAR.fc))
+            cubes.append(synthesize(po, RADAR, noise=False))
+        power = db(np.sum(np.abs(cubes[1]) ** 2) / np.sum(np.abs(cubes[0]) ** 2))
+        error = db(np.sum(np.abs(cubes[1] - cubes[0]) ** 2) / np.sum(np.abs(cubes[0]) ** 2))
+        print(f"yaw {yaw}: PO contributions {counts[0]} -> {counts[1]}; cube power {power:+.4f} dB, "
+              f"difference {error:.1f} dB")
+        assert counts[1] < counts[0]
+        np.testing.assert_allclose(channels[1], channels[0], rtol=1e-9)
+        assert abs(power) < 0.1 and error < -40
