@@ -191,7 +191,8 @@ def spinning_plate_animation(tmp_path, num_frames=4, distance=4.0, omega=8.0, bu
                                                   "scattering_coefficient": 1.0})}
     root = write_moving_mesh_animation(
         tmp_path / "spinning", lambda t: (v0 @ spin(t).T + centre(t), f), (bulk, 0.0, 0.0), num_frames=num_frames,
-        fps=10.0, vertex_velocity_fn=lambda t, v: bulk * np.array([1.0, 0, 0]) + omega * np.cross(normal, v - centre(t)),
+        fps=10.0, vertex_velocity_fn=lambda t, v: bulk * np.array([1.0, 0, 0]) + omega * np.cross(normal,
+                                                                                                 v - centre(t)),
         manifest_velocity=False, materials=materials, material="mat-rough")
     return load_animation(root)
 
