@@ -169,8 +169,10 @@ def coherence_benchmark(args):
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         animation = load_animation(registry.build("circle_walk", Path(tmp) / "walk"))
+        # the traced paths alone (no PO direct echo, deterministic diffuse phases), as measured below
         engines = {m: PathEngine(max_depth=args.depth, samples_per_src=args.samples, array_model=m,
-                                 max_num_paths_per_src=max(1_000_000, 4 * args.samples)) for m in models}
+                                 max_num_paths_per_src=max(1_000_000, 4 * args.samples),
+                                 physical_optics=False, random_phase=False) for m in models}
         for k, frame in enumerate(frames):
             for model in (models if k % 2 == 0 else models[::-1]):
                 out = Path(tmp) / f"{model}.zarr"
@@ -229,7 +231,9 @@ def sionna_benchmark(args):
     radar = RadarConfig.preset("walk-77ghz")
     with tempfile.TemporaryDirectory() as tmp:
         animation = load_animation(write_room_person(Path(tmp) / "room", args.frames))
-        engine = PathEngine(max_depth=2, samples_per_src=args.samples)
+        # the tracing overhead against bare Sionna: without the PO render (its cost is measured by
+        # benchmarks/circle_walk_physics.py)
+        engine = PathEngine(max_depth=2, samples_per_src=args.samples, physical_optics=False)
         engine_times, paths = [], []
         for f in range(args.frames):
             t0 = time.perf_counter()

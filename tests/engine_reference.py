@@ -3,9 +3,15 @@
 The reference was first written by the code *before* the engine-family redesign (issue 10) and
 regenerated, with ``python tests/engine_reference.py``, when the path engine's echoes changed on
 purpose: issue 11 (one trace for the whole array, ``array_model="coherent"``, every element pair
-from the interaction points; coincident specular paths removed). ``tests/test_engine_reference.py``
+from the interaction points; coincident specular paths removed), and again, for the path engine
+only (``python tests/engine_reference.py --only path``, the pixel arrays kept as stored), for
+issue 11's PO direct echo, ray-tube PO multi-bounce and random-phase diffuse paths. ``tests/test_engine_reference.py``
 recomputes the same cases with today's code and asserts that every array is identical, bit for
 bit. Regenerate it only for a change that is meant to alter the echoes, and say so in the commit.
+
+The path engine's arrays (its PO echo of a room has ~1e5 contributions per element pair) are
+stored as their SHA-256 digest with their shape and dtype (:func:`digest`), which is just as
+bit-for-bit and keeps the file small; the pixel engine's are stored as they are.
 
 Cases (small, deterministic):
 * ``walk``: two frames of the circle walk (a deforming body with per-vertex velocities, skin,
@@ -22,6 +28,34 @@ from pathlib import Path
 import numpy as np
 
 REFERENCE = Path(__file__).parent / "data" / "engine_reference.npz"
+#: Engines whose arrays are stored as a digest (key + "#sha256", uint8 [32]) and their shape and
+#: dtype (key + "#shape", key + "#dtype").
+DIGEST_ENGINES = ("path",)
+
+
+def digest(array) -> np.ndarray:
+    """SHA-256 of ``array``'s dtype, shape and bytes (C order) as uint8 ``[32]``."""
+    import hashlib
+
+    array = np.ascontiguousarray(array)
+    h = hashlib.sha256(f"{array.dtype.str}{array.shape}".encode())
+    h.update(array.tobytes())
+    return np.frombuffer(h.digest(), dtype=np.uint8)
+
+
+def stored_form(arrays: dict) -> dict:
+    """``arrays`` as written to the file: those of :data:`DIGEST_ENGINES` replaced by their digest,
+    shape and dtype."""
+    out = {}
+    for key, value in arrays.items():
+        value = np.asarray(value)
+        if key.split("/")[1].rstrip("0123456789") in DIGEST_ENGINES:
+            out[f"{key}#sha256"] = digest(value)
+            out[f"{key}#shape"] = np.asarray(value.shape, dtype=np.int64)
+            out[f"{key}#dtype"] = np.asarray(value.dtype.str)
+        else:
+            out[key] = value
+    return out
 
 CASES = {
     "walk": ("circle_walk", {"num_frames": 2, "room_margin": 0.5}),
@@ -39,8 +73,9 @@ ENGINES = {
 RADAR = "walk-77ghz"
 
 
-def compute(workdir) -> dict:
-    """Every reference array, keyed ``{case}/{engine}{k}/f{frame}/{a,tau,doppler,labels}``."""
+def compute(workdir, only: str | None = None) -> dict:
+    """Every reference array, keyed ``{case}/{engine}{k}/f{frame}/{a,tau,doppler,labels}``
+    (``only``: just the engine of that registry name), in the form stored (:func:`stored_form`)."""
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
     from sionnafmcw.scenes import registry
@@ -52,6 +87,8 @@ def compute(workdir) -> dict:
         path = registry.build(scenario, Path(workdir) / case, overwrite=True, **params)
         animation = load_animation(path)
         for k, (name, options) in enumerate(ENGINES[case]):
+            if only is not None and name != only:
+                continue
             engine = engines.create(name, track_kernels=False, **options)
             for frame in range(animation.num_frames):
                 e = engine.echoes(animation, radar, frame)
@@ -61,14 +98,20 @@ def compute(workdir) -> dict:
                 out[f"{key}/doppler"] = np.asarray(e.doppler)
                 out[f"{key}/labels"] = np.asarray(e.labels).astype(str)
             engine.close()
-    return out
+    return stored_form(out)
 
 
 if __name__ == "__main__":
     import tempfile
 
+    only = sys.argv[sys.argv.index("--only") + 1] if "--only" in sys.argv else None
     with tempfile.TemporaryDirectory() as tmp:
-        arrays = compute(tmp)
+        arrays = compute(tmp, only)
+    if only is not None:
+        # keep the other engines' arrays as stored
+        stored = np.load(REFERENCE)
+        kept = {key: stored[key] for key in stored.files if key.split("/")[1].rstrip("0123456789") != only}
+        arrays = kept | arrays
     REFERENCE.parent.mkdir(exist_ok=True)
     np.savez_compressed(REFERENCE, **arrays)
     print(f"wrote {REFERENCE}: {len(arrays)} arrays, {REFERENCE.stat().st_size / 1e6:.2f} MB", file=sys.stderr)

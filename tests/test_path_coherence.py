@@ -52,7 +52,7 @@ def test_diffuse_plate_azimuth_one_set_of_scatterers(tmp_path):
     anim = load_animation(write_moving_mesh_animation(tmp_path / "rough", lambda t: (v0 @ rot.T + centre, faces),
                                                       (0, 0, 0), num_frames=1, materials=ROUGH, material="mat-rough"))
     radar = RADAR.replace(num_chirps=16)
-    coherent = PathEngine(samples_per_src=200_000, specular=False)
+    coherent = PathEngine(physical_optics=False, samples_per_src=200_000, specular=False)
     echoes = coherent.echoes(anim, radar, 0)
     # one set of scatterers: every element pair carries the same contributions (the traced paths)
     assert echoes.num_contributions == coherent.last_stats.num_traced_paths > 50
@@ -60,7 +60,7 @@ def test_diffuse_plate_azimuth_one_set_of_scatterers(tmp_path):
     assert np.all(echoes.a != 0) and np.all(echoes.labels == "plate")
     assert abs(_azimuth_estimate(echoes, radar) - azimuth) < RAYLEIGH / 2
 
-    per_element = PathEngine(samples_per_src=200_000, specular=False, array_model="per-element")
+    per_element = PathEngine(physical_optics=False, samples_per_src=200_000, specular=False, array_model="per-element")
     assert abs(_azimuth_estimate(per_element.echoes(anim, radar, 0), radar) - azimuth) > RAYLEIGH / 2
 
 
@@ -78,7 +78,7 @@ def test_point_target_near_field_delay_and_doppler_per_element(tmp_path):
     root = write_moving_mesh_animation(tmp_path / "cube", lambda t: (v0 + pose[0] + centre + velocity * t, faces),
                                        velocity, num_frames=1, materials=ROUGH_METAL, material="mat-rough-metal",
                                        name="cube", radar_pose=pose)
-    engine = PathEngine(samples_per_src=400_000, max_depth=1, specular=False)
+    engine = PathEngine(physical_optics=False, samples_per_src=400_000, max_depth=1, specular=False)
     echoes = engine.echoes(load_animation(root), RADAR, 0)
     paths = engine.last_paths
     assert paths.num_paths >= 5 and np.all(paths.num_interactions == 1)
@@ -108,7 +108,7 @@ def _turned_plate_power(tmp_path, subdiv, deduplicate=True):
     v0, faces = plate_mesh([0, 0, 0], size=(0.5, 0.5), normal_axis=0, subdiv=subdiv)
     root = write_moving_mesh_animation(tmp_path / f"plate{subdiv}", lambda t: (v0 @ rot.T + 7.0 * normal, faces),
                                        (0, 0, 0), num_frames=1)
-    engine = PathEngine(samples_per_src=20_000, deduplicate=deduplicate)
+    engine = PathEngine(physical_optics=False, samples_per_src=20_000, deduplicate=deduplicate)
     echoes = engine.echoes(load_animation(root), RADAR, 0)
     return 10 * np.log10(np.sum(np.abs(echoes.a[0, 0]) ** 2)), engine.last_stats.num_duplicates
 
@@ -162,5 +162,5 @@ def test_specular_duplicates_rules():
 
 def test_array_model_is_checked():
     with pytest.raises(PathEngineError, match=r"array_model='synthetic' is unknown; choose one of coherent, per-element"):
-        PathEngine(array_model="synthetic")
-    assert PathEngine().settings()["array_model"] == "coherent"
+        PathEngine(physical_optics=False, array_model="synthetic")
+    assert PathEngine(physical_optics=False).settings()["array_model"] == "coherent"

@@ -48,7 +48,7 @@ def test_metal_plate_range_doppler_gain(tmp_path, speed):
     distance = 5.0
     root = write_plate_animation(tmp_path / "plate", distance=distance, velocity=(speed, 0.0, 0.0), num_frames=2)
     anim = load_animation(root)
-    engine = PathEngine(samples_per_src=2000)
+    engine = PathEngine(physical_optics=False, samples_per_src=2000)
     echoes = engine.echoes(anim, RADAR, 1)
     assert echoes.shape == (3, 4, 1)
     assert np.all(echoes.a != 0)
@@ -77,7 +77,7 @@ def test_radar_pose_orientation_and_override(tmp_path):
     root = write_moving_mesh_animation(tmp_path / "yaw", lambda t: plate_mesh((0.3, 5.0, 0.2), normal_axis=1),
                                        (0.0, 1.0, 0.0), num_frames=1, radar_pose=pose)
     anim = load_animation(root)
-    echoes = PathEngine(samples_per_src=2000).echoes(anim, RADAR, 0)
+    echoes = PathEngine(physical_optics=False, samples_per_src=2000).echoes(anim, RADAR, 0)
     rot = _rotation(np.pi / 2, 0.0, 0.0)
     tx = RADAR.tx_positions @ rot.T + position
     rx = RADAR.rx_positions @ rot.T + position
@@ -89,7 +89,7 @@ def test_radar_pose_orientation_and_override(tmp_path):
 
     # override: the same scene seen from 1 m further back along -y
     back = (position - [0, 1.0, 0], (np.pi / 2, 0.0, 0.0))
-    engine = PathEngine(samples_per_src=2000)
+    engine = PathEngine(physical_optics=False, samples_per_src=2000)
     far = engine.echoes(anim, RADAR, 0, radar_pose=back)
     np.testing.assert_allclose(far.tau - echoes.tau, 2.0 / SPEED_OF_LIGHT, atol=1e-13)
 
@@ -98,8 +98,8 @@ def test_missing_radar_pose_is_an_error(tmp_path):
     root = write_plate_animation(tmp_path / "p", radar_pose=None, num_frames=1)
     anim = load_animation(root)
     with pytest.raises(EngineError, match="no 'radar' pose"):
-        PathEngine(samples_per_src=1000).echoes(anim, RADAR, 0)
-    echoes = PathEngine(samples_per_src=1000).echoes(anim, RADAR, 0, radar_pose=([0, 0, 0], [0, 0, 0]))
+        PathEngine(physical_optics=False, samples_per_src=1000).echoes(anim, RADAR, 0)
+    echoes = PathEngine(physical_optics=False, samples_per_src=1000).echoes(anim, RADAR, 0, radar_pose=([0, 0, 0], [0, 0, 0]))
     assert echoes.shape == (3, 4, 1)
 
 
@@ -126,7 +126,7 @@ def test_no_kernel_compiled_after_frame_two(tmp_path):
                                 name="person", materials=dict(METAL, **ROUGH), extra_objects=[spinning],
                                 static=[("floor", floor_v, floor_f, "mat-rough")])
     anim = load_animation(root)
-    engine = PathEngine(samples_per_src=5000)
+    engine = PathEngine(physical_optics=False, samples_per_src=5000)
     counts = []
     for frame in range(anim.num_frames):
         echoes = engine.echoes(anim, RADAR, frame)
@@ -150,7 +150,7 @@ def test_no_kernel_compiled_after_frame_two(tmp_path):
 def test_new_radar_reloads_scene(tmp_path):
     root = write_plate_animation(tmp_path / "p", num_frames=2)
     anim = load_animation(root)
-    engine = PathEngine(samples_per_src=1000)
+    engine = PathEngine(physical_optics=False, samples_per_src=1000)
     engine.echoes(anim, RADAR, 0)
     other = RadarConfig.preset("ti-iwr1443boost")  # 2 Tx
     echoes = engine.echoes(anim, other, 1)
@@ -173,8 +173,8 @@ def test_rigid_vertex_velocity_field_matches_sionna(tmp_path):
                                                  vertex_velocity_fn=lambda t, v: np.tile(velocity, (len(v), 1))))
     assert field.vertex_velocities(1, "plate") is not None
     # deterministic candidate generation: both runs trace the very same paths in the same order
-    e_rigid = PathEngine(samples_per_src=5000, label="moving", deterministic=True).echoes(rigid, RADAR, 1)
-    e_field = PathEngine(samples_per_src=5000, label="moving", deterministic=True).echoes(field, RADAR, 1)
+    e_rigid = PathEngine(physical_optics=False, samples_per_src=5000, label="moving", deterministic=True).echoes(rigid, RADAR, 1)
+    e_field = PathEngine(physical_optics=False, samples_per_src=5000, label="moving", deterministic=True).echoes(field, RADAR, 1)
     assert e_rigid.shape == e_field.shape
     np.testing.assert_array_equal(e_rigid.tau, e_field.tau)
     np.testing.assert_array_equal(e_rigid.a, e_field.a)
@@ -202,7 +202,7 @@ def test_rotating_plate_matches_closed_form(tmp_path):
         vertex_velocity_fn=lambda t, v: np.cross([0.0, 0.0, omega], v - axis_point), manifest_velocity=False,
         materials=mats, material="mat-diffuse", name="strip")
     anim = load_animation(root)
-    echoes = PathEngine(samples_per_src=100_000).echoes(anim, radar, 0)
+    echoes = PathEngine(physical_optics=False, samples_per_src=100_000).echoes(anim, radar, 0)
     sel = echoes.a[0, 0] != 0
     tau, f = echoes.tau[0, 0][sel], echoes.doppler[0, 0][sel]
     assert len(f) >= 10
@@ -235,8 +235,8 @@ def test_skin_plate_reflects_fresnel_fraction_of_metal(tmp_path, material):
     metal = load_animation(write_plate_animation(tmp_path / "metal", num_frames=1, size=(2.0, 2.0)))
     skin = load_animation(write_plate_animation(tmp_path / "skin", num_frames=1, size=(2.0, 2.0),
                                                 materials={"mat-skin": material}, material="mat-skin"))
-    e_metal = PathEngine(samples_per_src=2000).echoes(metal, RADAR, 0)
-    engine = PathEngine(samples_per_src=2000)
+    e_metal = PathEngine(physical_optics=False, samples_per_src=2000).echoes(metal, RADAR, 0)
+    engine = PathEngine(physical_optics=False, samples_per_src=2000)
     e_skin = engine.echoes(skin, RADAR, 0)
     mat = engine.scene.get("skin")
     assert float(mat.relative_permittivity[0]) == pytest.approx(6.567, abs=1e-3)
@@ -258,10 +258,10 @@ def test_itu_material_outside_its_band_is_refused(tmp_path):
     anim = load_animation(write_plate_animation(tmp_path / "brick", num_frames=1, materials=mats,
                                                 static=[("wall", wall_v, wall_f, "mat-itu_brick")]))
     with pytest.raises(MaterialFrequencyError, match=r"mesh-wall.*'brick' is not defined at 77 GHz.*1-40 GHz"):
-        PathEngine(samples_per_src=1000).echoes(anim, RADAR, 0)
+        PathEngine(physical_optics=False, samples_per_src=1000).echoes(anim, RADAR, 0)
     # the same scene is fine for a 24 GHz radar
     radar24 = RADAR.replace(fc=24e9)
-    echoes = PathEngine(samples_per_src=1000).echoes(anim, radar24, 0)
+    echoes = PathEngine(physical_optics=False, samples_per_src=1000).echoes(anim, radar24, 0)
     assert echoes.num_contributions >= 1
 
 
@@ -270,12 +270,12 @@ def test_millimetre_wave_itu_material_loads_at_the_carrier(tmp_path):
     mats = {"mat-floor": ("itu-radio-material", {"type": "floorboard"})}
     anim = load_animation(write_plate_animation(tmp_path / "floorboard", num_frames=1, size=(2.0, 2.0),
                                                 materials=mats, material="mat-floor"))
-    engine = PathEngine(samples_per_src=2000)
+    engine = PathEngine(physical_optics=False, samples_per_src=2000)
     echoes = engine.echoes(anim, RADAR, 0)
     eps = float(engine.scene.get("floor").relative_permittivity[0])
     assert eps == pytest.approx(3.66, abs=0.01)  # ITU-R P.2040 floorboard, a = 3.66, b = 0
     # normal incidence on the half-space: |a| / |a_metal| = |(1 - n) / (1 + n)| within the conductivity term
-    metal = PathEngine(samples_per_src=2000).echoes(load_animation(
+    metal = PathEngine(physical_optics=False, samples_per_src=2000).echoes(load_animation(
         write_plate_animation(tmp_path / "metal", num_frames=1, size=(2.0, 2.0))), RADAR, 0)
     import sionna.rt.scene as sionna_scene
     assert sionna_scene.DEFAULT_FREQUENCY == 3.5e9  # restored after loading
@@ -293,7 +293,7 @@ def test_frames_must_keep_shapes_and_topology(tmp_path):
     end = text.index("</shape>", start) + len("</shape>\n")
     xml.write_text(text[:start] + text[end:])
     anim = load_animation(root)
-    engine = PathEngine(samples_per_src=1000)
+    engine = PathEngine(physical_optics=False, samples_per_src=1000)
     engine.echoes(anim, RADAR, 0)
     with pytest.raises(SceneGeometryError, match=r"0001\.xml: frame 1 has a different set of shapes .*missing: \['floor'\]"):
         engine.echoes(anim, RADAR, 1)
@@ -302,7 +302,7 @@ def test_frames_must_keep_shapes_and_topology(tmp_path):
         return plate_mesh((5.0, 0, 0), subdiv=1 if t == 0 else 2)
 
     anim = load_animation(write_moving_mesh_animation(tmp_path / "g", growing, (0, 0, 0), num_frames=2))
-    engine = PathEngine(samples_per_src=1000)
+    engine = PathEngine(physical_optics=False, samples_per_src=1000)
     engine.echoes(anim, RADAR, 0)
     with pytest.raises(SceneGeometryError, match=r"plate_0001\.ply: mesh 'plate' has 9 vertices in frame 1 but 4"):
         engine.echoes(anim, RADAR, 1)
@@ -314,8 +314,8 @@ def test_full_path_buffer_is_an_error_not_a_silent_loss(tmp_path):
     anim = load_animation(write_plate_animation(tmp_path / "rough", num_frames=1, size=(8.0, 8.0), distance=2.0,
                                                 materials=ROUGH, material="mat-rough"))
     with pytest.raises(PathEngineError, match=r"filled Sionna's path buffer .*raise max_num_paths_per_src"):
-        PathEngine(max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=500).echoes(anim, RADAR, 0)
-    echoes = PathEngine(max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=20_000).echoes(
+        PathEngine(physical_optics=False, max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=500).echoes(anim, RADAR, 0)
+    echoes = PathEngine(physical_optics=False, max_depth=1, specular=False, samples_per_src=2000, max_num_paths_per_src=20_000).echoes(
         anim, RADAR, 0)
     assert echoes.num_contributions > 500
 
@@ -333,7 +333,7 @@ def test_corner_reflectors_triple_bounce_per_element_closed_form(tmp_path):
     ranges, azimuths, height = (3.0, 5.0, 7.0), (-0.3, 0.0, 0.35), 1.0
     anim = load_animation(registry.build("corner_reflectors", tmp_path / "corners", ranges=ranges, azimuths=azimuths,
                                          height=height, num_frames=1))
-    engine = PathEngine(samples_per_src=1_000_000, max_depth=3)
+    engine = PathEngine(physical_optics=False, samples_per_src=1_000_000, max_depth=3)
     echoes = engine.echoes(anim, RADAR, 0)
     paths = engine.last_paths
     triple = (paths.num_interactions == 3) & np.all(paths.types == int(InteractionType.SPECULAR), axis=1)
@@ -357,7 +357,7 @@ def test_coherent_and_per_element_diffuse_power_agree(tmp_path):
                                                 subdiv=3, materials=ROUGH, material="mat-rough"))
     power = {}
     for model in ("coherent", "per-element"):
-        echoes = PathEngine(samples_per_src=200_000, specular=False, array_model=model).echoes(anim, RADAR, 0)
+        echoes = PathEngine(physical_optics=False, samples_per_src=200_000, specular=False, array_model=model).echoes(anim, RADAR, 0)
         power[model] = 10 * np.log10(np.sum(np.abs(echoes.a) ** 2, axis=2))
     assert np.all(np.isfinite(power["coherent"]))
     np.testing.assert_allclose(power["coherent"], power["per-element"], rtol=0, atol=0.05)

@@ -1,6 +1,10 @@
 '''Engines: turn one animation frame into :class:`~sionnafmcw.echoes.Echoes`, and their registry.
 
-* ``"path"``: :class:`PathEngine` -- Sionna RT's path solver, per element (:mod:`sionnafmcw.engines.path`).
+* ``"path"``: :class:`PathEngine` -- one Sionna RT trace for the whole array (Tx centre to Rx
+  centre; every element pair's delay, gain and Doppler from the interaction points), the direct
+  echo by near-field physical optics on a render from the phase centre (and ray-tube PO for
+  multi-bounce chains), Sionna's paths with a diffuse interaction with a random phase fixed to
+  every scatterer (:mod:`sionnafmcw.engines.path`, :mod:`sionnafmcw.engines.po_render`).
 * ``"pixel"``: :class:`PixelEngine` -- a render from the radar, every hit pixel a point target
   (:mod:`sionnafmcw.engines.pixel`).
 
@@ -8,7 +12,8 @@ Every engine is an :class:`~sionnafmcw.engines.base.Engine`: the base class owns
 template (radar pose, radar validation, scene (re)loading at the carrier, per-frame geometry,
 kernel tracking, :class:`~sionnafmcw.engines.base.FrameStats`) and each engine writes only its
 hooks (:mod:`sionnafmcw.engines.base`). The shared scene state is
-:mod:`sionnafmcw.engines.loaded_scene`; everything Sionna-specific goes through
+:mod:`sionnafmcw.engines.loaded_scene`, the PO render of the lit surface (for either engine)
+:mod:`sionnafmcw.engines.po_render`; everything Sionna-specific goes through
 :mod:`sionnafmcw.sionna_rt`.
 
 The registry is what :func:`~sionnafmcw.simulation.simulate`, the command line and data-set

@@ -1,4 +1,36 @@
-r"""Path engine: per-element echoes of an animation frame from Sionna RT's path solver.
+r"""Path engine: per-element echoes of an animation frame: PO direct echo, Sionna's multipath, random-phase diffuse.
+
+The echo of a frame has three parts (issue 11; each can be switched off for comparisons):
+
+* **the coherent (specular) share of every reflection, by physical optics** (``physical_optics=True``):
+  the lit surface is rendered from the array's phase centre (:mod:`sionnafmcw.engines.po_render`,
+  the render shared with the pixel engine) and the PO integral of
+  :mod:`sionnafmcw.physical_optics` is evaluated on its samples for every element pair, near-field
+  exact, with each material's complex reflection coefficient reduced to the coherent share
+  :math:`\sqrt{1 - S^2}\,\Gamma` (power :math:`(1 - S^2)|\Gamma|^2`). A flat plate then returns
+  :math:`4\pi A^2/\lambda^2` in the far field and the mirror image close in, a faceted sphere
+  :math:`\pi r^2` (smoothed shading normals), whatever the tessellation. Sionna's first-order
+  specular paths (exactly one interaction, specular) are dropped from the traced paths before
+  the pair expansion, so nothing is counted twice. With ``multibounce="po"`` (default) the
+  render's rays are also reflected and cast again up to ``max_depth`` bounces and every
+  further surface carries the PO current of the image source's field (ray-tube PO on the exit
+  aperture), which bounds a corner reflector by its aperture: a trihedral's triple bounce tends
+  to :math:`4\pi a^4/(3\lambda^2)` in the far field and to the geometric-optics value close in
+  (derivation in :mod:`~sionnafmcw.engines.po_render`); Sionna's purely specular chains are then
+  dropped too. ``multibounce="sionna"`` keeps Sionna's specular chains of two or more
+  interactions (image method, geometric optics). The PO contributions are merged per element
+  pair into cells of 1/16 of the range and velocity resolution (``po_merge``,
+  :func:`~sionnafmcw.engines.po_render.merge_contributions`: the channel at the carrier is kept
+  exactly);
+* **Sionna's paths with a diffuse interaction** (and, with ``multibounce="sionna"``, its specular
+  chains of two or more bounces), traced once for the whole array (below);
+* **a random phase per diffuse scatterer** (``random_phase=True``): every path with a diffuse
+  interaction is multiplied, once before the expansion to element pairs (so all pairs share it),
+  by :math:`e^{j\phi}` with :math:`\phi` the sum over its diffuse interactions of
+  :func:`sionnafmcw.diffuse.scatterer_phases` of (object, triangle, barycentric cell of
+  :math:`\lambda/4`): fixed to the surface point, so it moves with the body and stays the same
+  over chirps and frames, while neighbouring scatterers add in power -- the map power of a rough
+  surface no longer grows with the ray count (6 dB per 4x rays before).
 
 One :class:`~sionna.rt.Transmitter` and one :class:`~sionna.rt.Receiver` sit at the radar pose
 (pattern ``radar.antenna_pattern``, vertical polarisation). How the radar's elements see the
@@ -169,6 +201,7 @@ normals of a 10k-triangle body are some 60 mrad apart. Give skin a ``scattering_
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -184,6 +217,7 @@ from ..sionna_rt import (
 )
 from .base import Engine, EngineError
 from .loaded_scene import barycentric_weights, interpolate
+from .po_render import radio_material
 
 #: Minimum path segment length (m) for a radar. Sionna's 1 cm (``MIN_SEGMENT_LENGTH``, meant for
 #: communication links) drops every retro-reflected path of a radar: a trihedral's or dihedral's
@@ -219,6 +253,8 @@ class _State:
     names_by_id: dict
     velocities: dict = field(default_factory=dict)  # name -> velocity currently set in Sionna
     pose: tuple | None = None
+    materials: dict = field(default_factory=dict)   # name -> po_render.Material (PO)
+    normals: dict = field(default_factory=dict)     # po_render.scene_objects cache
 
 
 @dataclass
@@ -298,6 +334,32 @@ def specular_duplicates(paths: TracedPaths, wavelength: float, length_tolerance:
     return duplicate
 
 
+def specular_chains(paths: TracedPaths, max_interactions: int | None = None) -> np.ndarray:
+    """Mask ``[P]`` of the purely specular chains (every interaction a specular reflection or a
+    refraction) with at most ``max_interactions`` interactions (None: any number): the paths that
+    physical optics replaces (module docstring, "Physical optics")."""
+    valid = paths.valid_interactions
+    chain = np.all(~valid | np.isin(paths.types, _SPECULAR_TYPES), axis=1) & valid.any(axis=1)
+    if max_interactions is not None:
+        chain &= paths.num_interactions <= max_interactions
+    return chain
+
+
+def _select_render(bounce, keep):
+    """The samples of a :class:`~sionnafmcw.engines.po_render.Render` where ``keep`` holds."""
+    from dataclasses import replace
+
+    def pick(x):
+        return None if x is None else x[keep]
+
+    return replace(bounce, samples=bounce.samples.select(keep), source=pick(bounce.source),
+                   image_linear=pick(bounce.image_linear), image_offset=pick(bounce.image_offset),
+                   chain_reflection=pick(bounce.chain_reflection), direction=pick(bounce.direction),
+                   step_az=pick(bounce.step_az), step_el=pick(bounce.step_el), first_point=pick(bounce.first_point),
+                   first_velocity=pick(bounce.first_velocity), doppler_inner=pick(bounce.doppler_inner),
+                   second_direction=pick(bounce.second_direction))
+
+
 def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
 
@@ -334,31 +396,56 @@ class PathEngine(Engine):
         comparisons). See the module docstring.
     deduplicate : bool
         Keep one of every group of coincident specular paths (:func:`specular_duplicates`).
+    physical_optics : bool
+        PO direct echo from the render of :mod:`~sionnafmcw.engines.po_render` in place of
+        Sionna's first-order specular paths (needs ``array_model="coherent"``).
+    multibounce : str
+        ``"po"``: ray-tube PO up to ``max_depth`` bounces replaces Sionna's specular chains;
+        ``"sionna"``: Sionna's specular chains of two or more interactions are kept.
+    random_phase : bool
+        A random phase fixed to every diffuse scatterer (:mod:`sionnafmcw.diffuse`).
+    po_samples_across : int
+        Render samples across an object at least (:func:`~sionnafmcw.physical_optics.render_resolution`).
+    po_merge : bool
+        Merge the PO contributions per delay/Doppler cell of 1/16 of the resolutions.
 
     :attr:`last_paths` holds the :class:`TracedPaths` of the last frame (after de-duplication),
     with their interaction points. :attr:`stats` figures: ``num_paths`` (valid contributions of
     the frame over all element pairs, after de-duplication: :math:`MN` times the traced paths with
     ``"coherent"``), ``num_traced_paths`` (the paths Sionna traced and the engine kept: shared by
     all element pairs with ``"coherent"``, one element pair each with ``"per-element"``) and
-    ``num_duplicates`` (specular copies removed).
+    ``num_duplicates`` (specular copies removed), ``num_replaced_specular`` (Sionna's specular
+    chains that PO replaced), ``po_rays``, ``po_samples``, ``po_contributions`` (after merging)
+    and ``po_seconds``. :attr:`last_renders` holds the PO :class:`~sionnafmcw.engines.po_render.Render`
+    of every bounce, :attr:`last_parts` the frame's ``"traced"`` and ``"po"`` echoes apart.
     """
 
     name = "path"
     FIXED_SETTINGS = {"los": False}
     LABELS = ("first", "last", "moving")
     ARRAY_MODELS = ("coherent", "per-element")
+    MULTIBOUNCE = ("po", "sionna")
 
     def __init__(self, max_depth: int = 2, samples_per_src: int = 100_000, max_num_paths_per_src: int = 1_000_000,
                  diffuse: bool = True, specular: bool = True, refraction: bool = False, diffraction: bool = False,
                  seed: int = 1, vertex_doppler: bool = True, label: str = "first", track_kernels: bool = True,
-                 deterministic: bool = False, array_model: str = "coherent", deduplicate: bool = True):
+                 deterministic: bool = False, array_model: str = "coherent", deduplicate: bool = True,
+                 physical_optics: bool = True, multibounce: str = "po", random_phase: bool = True,
+                 po_samples_across: int = 16, po_merge: bool = True):
         if label not in self.LABELS:
             raise PathEngineError(f"PathEngine: label={label!r} is unknown; choose one of {', '.join(self.LABELS)}")
         if array_model not in self.ARRAY_MODELS:
             raise PathEngineError(f"PathEngine: array_model={array_model!r} is unknown; choose one of "
                                   f"{', '.join(self.ARRAY_MODELS)}")
+        if multibounce not in self.MULTIBOUNCE:
+            raise PathEngineError(f"PathEngine: multibounce={multibounce!r} is unknown; choose one of "
+                                  f"{', '.join(self.MULTIBOUNCE)}")
+        if physical_optics and array_model != "coherent":
+            raise PathEngineError("PathEngine: physical_optics=True needs array_model='coherent' (one set of "
+                                  "scatterers for the whole array); pass physical_optics=False for 'per-element'")
         for name, value, low in (("max_depth", max_depth, 1), ("samples_per_src", samples_per_src, 1),
-                                 ("max_num_paths_per_src", max_num_paths_per_src, 1), ("seed", seed, 0)):
+                                 ("max_num_paths_per_src", max_num_paths_per_src, 1), ("seed", seed, 0),
+                                 ("po_samples_across", po_samples_across, 1)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < low:
                 raise PathEngineError(
                     f"PathEngine: {name} must be an integer >= {low}, got {value!r}"
@@ -378,15 +465,25 @@ class PathEngine(Engine):
         self.deterministic = bool(deterministic)
         self.array_model = array_model
         self.deduplicate = bool(deduplicate)
+        self.physical_optics = bool(physical_optics)
+        self.multibounce = multibounce
+        self.random_phase = bool(random_phase)
+        self.po_samples_across = int(po_samples_across)
+        self.po_merge = bool(po_merge)
         self._solver = PathSolver(deterministic=self.deterministic)
         self.last_paths: TracedPaths | None = None
+        self.last_renders: list = []
+        self.last_parts: dict = {}
 
     def _settings(self) -> dict:
         return {"max_depth": self.max_depth, "samples_per_src": self.samples_per_src,
                 "max_num_paths_per_src": self.max_num_paths_per_src, "diffuse": self.diffuse,
                 "specular": self.specular, "refraction": self.refraction, "diffraction": self.diffraction,
                 "seed": self.seed, "deterministic": self.deterministic, "vertex_doppler": self.vertex_doppler,
-                "label": self.label, "array_model": self.array_model, "deduplicate": self.deduplicate}
+                "label": self.label, "array_model": self.array_model, "deduplicate": self.deduplicate,
+                "physical_optics": self.physical_optics, "multibounce": self.multibounce,
+                "random_phase": self.random_phase, "po_samples_across": self.po_samples_across,
+                "po_merge": self.po_merge}
 
     @property
     def coherent(self) -> bool:
@@ -420,10 +517,13 @@ class PathEngine(Engine):
         scene.add(rx)
 
         names_by_id = {}
+        materials = {}
         for name, obj in scene.objects.items():
             names_by_id[int(obj.object_id)] = name
             obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
-        return _State(tx, rx, names_by_id)
+            if self.physical_optics:
+                materials[name] = radio_material(obj.radio_material, name)
+        return _State(tx, rx, names_by_id, materials=materials)
 
     def _geometry_changed(self) -> None:
         self._loaded.scene.scene_geometry_updated()
@@ -433,27 +533,133 @@ class PathEngine(Engine):
         velocities = self._update_velocities(animation, frame)
         paths = self._trace(self._loaded.scene)
         wavelength = SPEED_OF_LIGHT / radar.fc
-        num_duplicates = 0
+        num_duplicates = num_replaced = 0
+        if self.physical_optics and paths.num_paths:
+            # PO replaces Sionna's specular chains: the first-order mirror paths always, the longer
+            # chains with multibounce="po" (ray-tube PO on the exit aperture, po_render)
+            replaced = specular_chains(paths, 1 if self.multibounce == "sionna" else None)
+            num_replaced = int(replaced.sum())
+            if num_replaced:
+                paths = paths.select(~replaced)
         if self.deduplicate and paths.num_paths:
             duplicate = specular_duplicates(paths, wavelength)
             num_duplicates = int(duplicate.sum())
             if num_duplicates:
                 paths = paths.select(~duplicate)
         self.last_paths = paths
-        if paths.num_paths == 0:
+        figures = {"num_traced_paths": paths.num_paths, "num_duplicates": num_duplicates,
+                   "num_replaced_specular": num_replaced}
+        parts = []
+        if paths.num_paths:
+            vertex_velocity, velocity = self._interaction_velocities(paths, velocities)
+            doppler = paths.doppler + self._vertex_doppler(paths, vertex_velocity, wavelength)
+            labels = self._labels(paths, velocities)
+            if self.random_phase:
+                paths.a = paths.a * np.exp(1j * self._diffuse_phases(paths, wavelength))
+            if self.coherent:
+                parts.append(self._coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength))
+            else:
+                parts.append(self._per_element_echoes(paths, doppler, labels, radar))
+        pairs = radar.num_tx * radar.num_rx if self.coherent else 1
+        figures["num_paths"] = pairs * paths.num_paths
+        self.last_parts = {"traced": parts[0] if parts else None}
+        if self.physical_optics:
+            po, po_figures = self._po_echoes(animation, radar, frame, pose, velocities, wavelength)
+            figures.update(po_figures)
+            self.last_parts["po"] = po
+            if po is not None:
+                parts.append(po)
+        if not parts:
             e = Echoes.empty(radar.num_tx, radar.num_rx)
             e.labels = np.zeros((radar.num_tx, radar.num_rx, 0), dtype=str)
-            return e, {"num_paths": 0, "num_traced_paths": 0, "num_duplicates": num_duplicates}
-        vertex_velocity, velocity = self._interaction_velocities(paths, velocities)
-        doppler = paths.doppler + self._vertex_doppler(paths, vertex_velocity, wavelength)
-        labels = self._labels(paths, velocities)
-        if self.coherent:
-            echoes = self._coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength)
-        else:
-            echoes = self._per_element_echoes(paths, doppler, labels, radar)
-        pairs = radar.num_tx * radar.num_rx if self.coherent else 1
-        return echoes, {"num_paths": pairs * paths.num_paths, "num_traced_paths": paths.num_paths,
-                        "num_duplicates": num_duplicates}
+            return e, figures
+        echoes = parts[0] if len(parts) == 1 else Echoes.concatenate(parts)
+        return echoes, figures
+
+    # ------------------------------------------------------------------ physical optics
+    def _po_echoes(self, animation: Animation, radar, frame: int, pose: RadarPose, velocities: dict,
+                   wavelength: float):
+        """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
+        reflections up to ``max_depth`` bounces (:mod:`sionnafmcw.engines.po_render`), every element
+        pair near-field exact, merged per delay/Doppler cell of 1/16 of the resolutions."""
+        from .po_render import chain_po_gains, merge_contributions, reflect, render, scene_objects
+
+        t0 = time.perf_counter()
+        loaded, state = self._loaded, self._state
+        rot = rotation_matrix(pose.orientation)
+        centre = np.asarray(pose.position, float) + rot @ radar.phase_centre
+        tx_w = np.asarray(pose.position, float) + radar.tx_positions @ rot.T
+        rx_w = np.asarray(pose.position, float) + radar.rx_positions @ rot.T
+        rigid = {name: np.asarray(animation.frame(frame).objects.get(name, np.zeros(3)), float)
+                 for name in loaded.scene.objects}
+        objects = scene_objects(loaded, rigid, state.materials, vertex_doppler=self.vertex_doppler,
+                                cache=state.normals)
+        bounce = render(loaded, centre, rot, wavelength, rigid, state.materials, objects=objects,
+                        samples_across=self.po_samples_across, vertex_doppler=self.vertex_doppler)
+        renders = [bounce]
+        depth = self.max_depth if (self.multibounce == "po" and self.specular) else 1
+        while bounce.depth < depth and bounce.num_samples:
+            bounce = reflect(loaded, bounce, objects, rot, wavelength)
+            renders.append(bounce)
+        self.last_renders = renders
+        echoes = []
+        num_samples = 0
+        for b in renders:
+            s = b.samples
+            keep = s.scattering_coefficient < 1.0
+            if b.depth > 1:
+                keep &= np.abs(b.chain_reflection) > 0
+            if not np.any(keep):
+                continue
+            num_samples += int(keep.sum())
+            b_sel = _select_render(b, keep)
+            g_t = antenna_gain(radar.antenna_pattern, *direction_angles(
+                (b_sel.first_point[None] - tx_w[:, None]) @ rot))
+            g_r = antenna_gain(radar.antenna_pattern, *direction_angles(
+                (b_sel.samples.position[None] - rx_w[:, None]) @ rot))
+            a, tau, doppler = chain_po_gains(b_sel, tx_w, rx_w, wavelength, g_t, g_r)
+            labels = b_sel.samples.labels
+            if self.po_merge:
+                a, tau, doppler, labels = merge_contributions(
+                    a, tau, doppler, labels, delay_cell=1.0 / (16 * radar.bandwidth),
+                    doppler_cell=1.0 / (16 * radar.cpi_duration), frequency=radar.fc)
+            echoes.append(Echoes(a, tau, doppler, np.broadcast_to(labels, a.shape).astype(str)))
+        figures = {"po_rays": int(sum(b.num_rays for b in renders)), "po_samples": num_samples,
+                   "po_contributions": int(sum(e.num_contributions for e in echoes)),
+                   "po_seconds": time.perf_counter() - t0}
+        if not echoes:
+            return None, figures
+        return (echoes[0] if len(echoes) == 1 else Echoes.concatenate(echoes)), figures
+
+    def _diffuse_phases(self, paths: TracedPaths, wavelength: float) -> np.ndarray:
+        r"""Random phase ``[P]`` of every path: the sum over its diffuse interactions of
+        :func:`sionnafmcw.diffuse.scatterer_phases` of (object, triangle, barycentric cell of
+        :math:`\lambda/4`), so a diffuse scatterer keeps its phase while it is on the same surface
+        cell (module docstring, "Diffuse scattering"); 0 for specular chains."""
+        from ..diffuse import cells_per_edge, scatterer_phases
+
+        phase = np.zeros(paths.num_paths)
+        diffuse = paths.valid_interactions & (paths.types == int(InteractionType.DIFFUSE))
+        if not np.any(diffuse):
+            return phase
+        loaded, names_by_id = self._loaded, self._state.names_by_id
+        rows, cols = np.nonzero(diffuse)
+        for shape_id in np.unique(paths.shapes[rows, cols]):
+            name = names_by_id.get(int(shape_id))
+            if name is None:
+                continue
+            on = paths.shapes[rows, cols] == shape_id
+            r, c = rows[on], cols[on]
+            faces = loaded.faces[name][paths.primitives[r, c]]
+            vpos = loaded.vertices[name]
+            a, b, cc = vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]]
+            w = barycentric_weights(paths.vertices[r, c], a, b, cc)
+            edge = np.max(np.stack([np.linalg.norm(b - a, axis=-1), np.linalg.norm(cc - b, axis=-1),
+                                    np.linalg.norm(a - cc, axis=-1)]), axis=0)
+            phi = scatterer_phases(np.full(r.size, name), paths.primitives[r, c], w[:, 1:],
+                                   cells_per_edge(edge, wavelength / 4))
+            np.add.at(phase, r, phi)
+        return np.mod(phase, 2 * np.pi)
 
     # ------------------------------------------------------------------ per frame
     def _update_velocities(self, animation: Animation, frame: int) -> dict:
@@ -708,4 +914,4 @@ class PathEngine(Engine):
 
 
 __all__ = ["DUPLICATE_LENGTH_TOLERANCE", "DUPLICATE_POINT_TOLERANCE", "PathEngine", "PathEngineError", "RADAR_MIN_SEGMENT_LENGTH",
-           "TracedPaths", "specular_duplicates"]
+           "TracedPaths", "specular_chains", "specular_duplicates"]
