@@ -165,3 +165,79 @@ def test_tx_rx_leakage_option(small_radar):
     d = np.linalg.norm(radar.tx_positions[0] - radar.rx_positions[0])
     step = np.angle(tone[0, 0, 0, 1:] / tone[0, 0, 0, :-1])
     assert np.allclose(step, 2 * np.pi * radar.slope * d / SPEED_OF_LIGHT / radar.fs, atol=1e-4)
+
+
+def budget_echoes(radar, seed):
+    """A walk-like mix: a moving body (many weak contributions), static clutter, multipath beyond R_max."""
+    rng = np.random.default_rng(seed)
+    body = Echoes.point_targets(radar, rng.uniform(2.0, 3.0, 200), rng.uniform(-9.0, 9.0, 200),
+                                np.deg2rad(rng.uniform(-10, 10, 200)), 0.0, np.full(200, 1.0 / 200))
+    clutter = random_echoes(radar, 100, seed=seed + 1, max_speed=0.0)
+    far = Echoes.point_targets(radar, rng.uniform(1.1, 2.5, 5) * radar.max_range, rng.uniform(-3, 3, 5),
+                               np.deg2rad(rng.uniform(-40, 40, 5)), 0.0, 0.5)
+    return Echoes.concatenate([body, clutter, far])
+
+
+def max_channel_error(fast, direct):
+    return max(np.abs(fast[:, m, n] - direct[:, m, n]).max() for m in range(fast.shape[1]) for n in range(fast.shape[2]))
+
+
+@pytest.mark.parametrize("tx_order, scale, precision", [([0, 1, 2], 1.0, "complex128"),
+                                                        ([2, 0, 1], 1.0, "complex128"),
+                                                        ([2, 0, 1], 0.1, "complex64")])
+def test_noise_budget_keeps_error_20_db_below_noise(small_radar, tx_order, scale, precision):
+    """Issue 12: with noise on, every sample's synthesis error is >= 20 dB below the thermal noise.
+
+    Echoes 20 dB weaker (``scale`` 0.1) leave room for single precision."""
+    from sionnafmcw.synthesis import noise_error_budget, synthesis_accuracy
+
+    radar = small_radar.replace(tx_order=tx_order)
+    echoes = budget_echoes(radar, seed=len(tx_order) + tx_order[0])
+    echoes = Echoes(echoes.a * scale, echoes.tau, echoes.doppler)
+    budget = noise_error_budget(radar)
+    assert budget == pytest.approx(0.1 * np.sqrt(radar.noise_power))  # 20 dB below sigma
+    accuracy = synthesis_accuracy(echoes, radar, max_error=budget)
+    # looser than the tight default (else the test shows nothing), and the bound meets the budget
+    assert accuracy.nufft_tol >= 10 * 1e-7 and accuracy.error_bound <= budget * (1 + 1e-9)
+    assert accuracy.dtype == precision
+    direct = beat_direct(echoes, radar)
+    fast = beat_nufft(echoes, radar, max_error=budget)
+    assert max_channel_error(fast, direct) <= accuracy.error_bound
+    # synthesize applies it: its noise-on cube minus the same noise is the fast sum (complex64)
+    shape = direct.shape
+    from sionnafmcw.synthesis import thermal_noise
+
+    signal = synthesize(echoes, radar, noise=True, rng=3) - thermal_noise(shape, radar, np.random.default_rng(3))
+    rounding = 1e-6 * np.abs(direct).max()  # complex64 storage of the cube and of the noise
+    assert max_channel_error(signal, direct) <= budget + rounding
+
+
+def test_noise_budget_strong_echoes_fall_back_to_double_precision(small_radar):
+    """Echoes 90 dB over the noise (Tx-Rx leakage) need a tolerance single precision cannot give."""
+    from sionnafmcw.synthesis import noise_error_budget, synthesis_accuracy
+
+    radar = small_radar
+    echoes = Echoes.concatenate([budget_echoes(radar, seed=9), Echoes.leakage(radar, -20.0)])
+    budget = noise_error_budget(radar)
+    accuracy = synthesis_accuracy(echoes, radar, max_error=budget)
+    assert accuracy.dtype == "complex128" and accuracy.nufft_tol < 5e-5
+    fast = beat_nufft(echoes, radar, max_error=budget)
+    assert fast.dtype == np.complex128
+    assert max_channel_error(fast, beat_direct(echoes, radar)) <= accuracy.error_bound <= budget * (1 + 1e-9)
+
+
+def test_noise_off_keeps_tight_tolerance(small_radar):
+    """Without noise the fast sum keeps finufft tol 1e-7 in double precision, and meets its bound."""
+    from sionnafmcw.synthesis import synthesis_accuracy
+
+    radar = small_radar
+    echoes = budget_echoes(radar, seed=4)
+    accuracy = synthesis_accuracy(echoes, radar)
+    assert accuracy.nufft_tol == 1e-7 and accuracy.dtype == "complex128" and accuracy.max_error is None
+    direct = beat_direct(echoes, radar)
+    fast = beat_nufft(echoes, radar)
+    assert max_channel_error(fast, direct) <= accuracy.error_bound
+    # relative to the strongest sample: 1e-7 of the strength sum is ~1e-6 of the signal here
+    assert np.linalg.norm(fast - direct) / np.linalg.norm(direct) <= 1e-5
+    cube = synthesize(echoes, radar, noise=False)
+    assert np.abs(cube - direct).max() <= accuracy.error_bound + 1e-6 * np.abs(direct).max()

@@ -19,35 +19,53 @@ approximations are made, and both have per-sample bounds in absolute units (:mat
 * **NUFFT** (finufft, tolerance :math:`\epsilon`): finufft's tolerance is relative to the sum of
   the magnitudes of the strengths, so transform :math:`t` (strengths
   :math:`g_p\prod_i (j2\pi r_{i,p})^{e_i}/e_i!`, multiplied on the grid by its basis, whose
-  largest value is :math:`\prod_i \max|b_i|^{e_i}`) errs by at most about
-  :math:`\epsilon\,\|s_t\|_1\max|b_t|`; summed over the terms,
+  largest value is :math:`\prod_i \max|b_i|^{e_i}`) errs by about
+  :math:`\epsilon\,\|s_t\|_1\max|b_t|`. Measured against the direct sum (static, moving and
+  mixed echoes, 32 x 64 and 256 x 128 grids, :math:`\epsilon = 10^{-6}\ldots10^{-3}`, both
+  precisions): up to 2.5 times that with upsampling 1.25 (3.9 at :math:`10^{-7}`, hence
+  finufft's own choice below :math:`10^{-6}`), and 4.3 for one dominant source (Tx-Rx leakage at
+  :math:`7\times10^{-7}`), so the bound takes a safety factor :math:`s = 8`
+  (:data:`NUFFT_SAFETY`); summed over the terms,
 
-  .. math:: E_N \le \epsilon\,\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{n\le Q}\frac{\theta_p^n}{n!}
-            \;\le\; \epsilon\,\sqrt{P_t}\,\max\sum_p |a_p|\, e^{\theta_p}.
+  .. math:: E_N \le s\,\epsilon\,\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{n\le Q}\frac{\theta_p^n}{n!}
+            \;\le\; s\,\epsilon\,\sqrt{P_t}\,\max\sum_p |a_p|\, e^{\theta_p}.
 
 Budget from the noise floor. With thermal noise on, the synthesis error only has to stay well
 below the receiver noise :math:`\sigma = \sqrt{k T_0 F F_s}` per sample: a margin of
 :math:`D` dB (default 20) sets the budget :math:`E_{\max} = \sigma\,10^{-D/20}`, i.e. the error
-power is at most 1 % of the noise power and changes the noise floor by < 0.05 dB. The order
-:math:`Q` is the smallest that keeps :math:`E_T \le 0.1\,E_{\max}`, and the NUFFT tolerance takes
-the rest,
+power is at most 1 % of the noise power and changes the noise floor by < 0.05 dB. The Taylor
+part may use :math:`0.1\,E_{\max}` (:data:`TAYLOR_SHARE`): monomials are kept in order of their
+weight (the largest value any of their samples can take) and the lightest dropped while the
+dropped weights plus the tail beyond the candidate degree stay within that share (the series
+converges absolutely, so this bounds the truncation whatever the kept set; usually only the
+constant term, or it and :math:`l'^2`, survive). The NUFFT tolerance takes the rest,
 
 .. math::
-    \epsilon = \frac{E_{\max} - E_T}{\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{n\le Q}\theta_p^n/n!},
+    \epsilon = \frac{E_{\max} - E_T}{s\,\sqrt{P_t}\,\max_{\rm channel}\sum_p |a_p|\sum_{t\,\rm kept} w_{t,p}},
 
 clipped to :data:`MAX_NUFFT_TOL` (a looser kernel is not faster). For the walk-77ghz radar
-(:math:`\sigma = 0.56\ \mu\sqrt{W}`) and a room with a person (:math:`\sqrt{P_t}\sum|a|` a few
-:math:`10^{-3}\sqrt{W}` per channel) this is :math:`\epsilon \approx 10^{-5}`. Single precision
-(complex64 finufft, about 3x less work) is used when :math:`\epsilon \ge`
-:data:`SINGLE_PRECISION_MIN_TOL`: float32 finufft bottoms out at a few :math:`10^{-6}` of the
-strength sum on these grids (measured), so the bound still holds with margin there.
+(:math:`\sigma = 0.56\ \mu\sqrt{W}`, budget 56 n :math:`\sqrt{W}`) a circle-walk frame of the path
+or pixel engine has :math:`\sqrt{P_t}\sum|a| \approx 55\sigma` per channel, so
+:math:`\epsilon` hits the cap; the point-target walk frame of ``benchmarks/synthesis.py``
+(:math:`600\sigma`: 8 specular returns of 1-20 m^2) gets :math:`1.9\times10^{-5}`, in double
+precision. Single precision
+(complex64 finufft, 1.5-2x less work) is used when :math:`\epsilon \ge`
+:data:`SINGLE_PRECISION_MIN_TOL` and every contribution is inside the unambiguous Doppler
+(:math:`|B_p| \le 1/2` cycle per TDM block). There float32 finufft bottoms out at
+:math:`0.5\text{-}1\times10^{-5}` of the strength sum (measured on the walk-77ghz and
+12 x 128 x 256 grids, worst case all strengths in phase), under :math:`0.05\,s\,\epsilon` for
+:math:`\epsilon \ge 2.5\times10^{-5}`, and above it the error is the same as in double
+precision (measured up to 2.2 :math:`\epsilon`), so the bound holds. Far outside the unambiguous Doppler the
+float32 phases :math:`x_j s_k` reach :math:`10^4` rad and the floor grows with them (measured 2x
+over the budget at 170 m/s), so double precision is used there.
 
 With noise off there is no floor to hide under: the tight defaults :data:`NUFFT_TOL`,
 :data:`TAYLOR_TOL` (relative, double precision) are kept unless an explicit absolute
 ``max_error`` is given.
 
-Both bounds are worst cases (every contribution adding in phase at one sample); the error
-measured against the direct sum is typically 3-30x smaller (``tests/test_synthesis.py``).
+Both bounds are worst cases (every contribution adding in phase at one sample); the errors
+measured against the direct sum stay below them (``tests/test_synthesis.py``,
+``benchmarks/synthesis.py``).
 """
 
 from __future__ import annotations
@@ -69,7 +87,10 @@ NOISE_MARGIN_DB = 20.0
 #: Share of the error budget given to the Taylor truncation; the NUFFT gets the rest.
 TAYLOR_SHARE = 0.1
 #: Smallest finufft tolerance for which the single-precision (complex64) library is used.
-SINGLE_PRECISION_MIN_TOL = 5e-5
+SINGLE_PRECISION_MIN_TOL = 2.5e-5
+#: finufft's type-3 tolerance is "about": measured errors reach 4.3 tol x (strength sum) (see the
+#: module docstring), so the bound uses eight times the tolerance requested.
+NUFFT_SAFETY = 8.0
 #: Loosest finufft tolerance requested (looser is no faster on these grids).
 MAX_NUFFT_TOL = 1e-3
 
@@ -130,7 +151,8 @@ def monomials(order: int) -> list[tuple]:
 
 
 def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: float | None = None,
-                    nufft_tol: float = NUFFT_TOL, taylor_tol: float = TAYLOR_TOL) -> SynthesisAccuracy:
+                    nufft_tol: float = NUFFT_TOL, taylor_tol: float = TAYLOR_TOL,
+                    max_block_phase: float = 0.0) -> SynthesisAccuracy:
     r"""Taylor terms, finufft tolerance and precision for the live contributions of every channel.
 
     ``amplitudes``: one array :math:`|a_p|` per channel; ``residual_phases``: one ``[3, P]`` array
@@ -146,6 +168,8 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     the truncation whatever the kept set); the NUFFT tolerance takes the rest of the budget over
     :math:`\sum_{t\,\rm kept} w_t`. Without it, all monomials up to the order given by the relative
     ``taylor_tol`` and the relative ``nufft_tol`` in double precision (the tight default).
+    ``max_block_phase``: the largest :math:`|B_p|` (cycles per TDM block); single precision is
+    used only within the unambiguous Doppler, :math:`|B_p| \le 1/2`, where its floor was measured.
     """
     root_pt = float(np.sqrt(tx_power))
     pairs = [(np.asarray(a, float), np.asarray(f, float).reshape(3, -1)) for a, f in zip(amplitudes, residual_phases)]
@@ -178,7 +202,7 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
         order = taylor_order(theta_max, taylor_tol)
         terms = monomials(order)
         return SynthesisAccuracy(tuple(terms), float(nufft_tol), "complex128", tail(order, factor=False),
-                                 nufft_tol * sum(weight(t) for t in terms), None)
+                                 NUFFT_SAFETY * nufft_tol * sum(weight(t) for t in terms), None)
     if not (np.isfinite(max_error) and max_error > 0):
         raise ValueError(f"beat synthesis: max_error must be a positive number of sqrt(W), got {max_error!r}")
     allowed = TAYLOR_SHARE * max_error
@@ -198,8 +222,9 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     if terms[0] != (0, 0, 0):
         terms = [(0, 0, 0)] + [t for t in terms if t != (0, 0, 0)]
     total = sum(weights[t] for t in terms)
-    tol = MAX_NUFFT_TOL if total == 0 else min(MAX_NUFFT_TOL, (max_error - dropped) / total)
+    tol = MAX_NUFFT_TOL if total == 0 else min(MAX_NUFFT_TOL, (max_error - dropped) / (NUFFT_SAFETY * total))
     # double precision cannot go much below 1e-14 relative; the bound then says so honestly
     tol = max(tol, 1e-14)
-    dtype = "complex64" if tol >= SINGLE_PRECISION_MIN_TOL else "complex128"
-    return SynthesisAccuracy(tuple(terms), float(tol), dtype, dropped, tol * total, float(max_error))
+    single = tol >= SINGLE_PRECISION_MIN_TOL and max_block_phase <= 0.5
+    dtype = "complex64" if single else "complex128"
+    return SynthesisAccuracy(tuple(terms), float(tol), dtype, dropped, NUFFT_SAFETY * tol * total, float(max_error))

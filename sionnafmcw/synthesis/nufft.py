@@ -47,7 +47,8 @@ contributes nothing, and the tolerance is relative to each vector's own strength
 groups run as single-threaded plans on a thread pool (finufft releases the GIL), which beats
 finufft's own threading on these small transforms (NOTES section 4). An upsampling factor of
 1.25 (instead of 2) shrinks the fine grids 2.6x for a slightly wider kernel: measured 2.5-3.5x
-faster transforms at the same error on the walk-77ghz grid.
+faster transforms at the same error on the walk-77ghz grid (used at tolerances >= 1e-6; below,
+finufft chooses, as before).
 """
 
 from __future__ import annotations
@@ -66,7 +67,7 @@ from .phase import PhasePolynomial
 
 #: Channels per finufft plan (union of their sources, one set-up); measured best on 2 cores.
 CHANNELS_PER_PLAN = 3
-#: finufft fine-grid upsampling factor.
+#: finufft fine-grid upsampling factor at tolerances >= 1e-6 (below, finufft's own choice).
 UPSAMPFAC = 1.25
 
 
@@ -127,14 +128,19 @@ def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
 def synthesis_accuracy(echoes, radar, max_error: float | None = None, nufft_tol: float = NUFFT_TOL,
                        taylor_tol: float = TAYLOR_TOL) -> SynthesisAccuracy:
     """The settings :func:`beat_nufft` uses for these echoes and their error bound (:mod:`.accuracy`)."""
-    channels = _channels(echoes, radar, _Grid(radar))
+    return _accuracy(_channels(echoes, radar, _Grid(radar)), radar, max_error, nufft_tol, taylor_tol)
+
+
+def _accuracy(channels, radar, max_error, nufft_tol, taylor_tol) -> SynthesisAccuracy:
+    max_b = max((float(np.abs(c.y).max()) / (2 * np.pi) for c in channels), default=0.0)
     return choose_accuracy([c.amplitude for c in channels], [c.phases for c in channels], radar.tx_power,
-                           max_error, nufft_tol, taylor_tol)
+                           max_error, nufft_tol, taylor_tol, max_block_phase=max_b)
 
 
 def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUFFT_TOL,
                taylor_tol: float = TAYLOR_TOL, max_error: float | None = None,
-               channels_per_plan: int = CHANNELS_PER_PLAN, upsampfac: float = UPSAMPFAC) -> np.ndarray:
+               channels_per_plan: int = CHANNELS_PER_PLAN, upsampfac: float | None = None,
+               precision: str | None = None) -> np.ndarray:
     """Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
 
     Parameters
@@ -147,6 +153,8 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Channels sharing one finufft plan (1: a plan per channel).
     workers : int, optional
         Threads (default: CPU count, at most one per plan).
+    precision : {"complex64", "complex128"}, optional
+        Override the precision chosen from the budget (for measurements of the error floor).
 
     Returns complex64 when the budget allows single precision, complex128 otherwise.
     """
@@ -155,9 +163,10 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
     grid = _Grid(radar)
     channels = _channels(echoes, radar, grid)
-    accuracy = choose_accuracy([c.amplitude for c in channels], [c.phases for c in channels], radar.tx_power,
-                               max_error, nufft_tol, taylor_tol)
-    dtype = np.dtype(accuracy.dtype)
+    accuracy = _accuracy(channels, radar, max_error, nufft_tol, taylor_tol)
+    dtype = np.dtype(precision or accuracy.dtype)
+    if upsampfac is None:  # 0: finufft's own choice (as before the noise budget)
+        upsampfac = UPSAMPFAC if accuracy.nufft_tol >= 1e-6 else 0.0
     real = np.float32 if dtype == np.complex64 else np.float64
     out = np.zeros((L, M, N, Ns), dtype=dtype)
     if not channels:
