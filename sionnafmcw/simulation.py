@@ -244,7 +244,8 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
                        "sionnafmcw_version": __version__},
                 wait=wait, hold_lock=True,
             )
-        done = store.done()
+        with deferred():
+            done = store.done()
         todo = [f for f in indices if not done[f]]
         centre = world_phase_centre(radar, pose.position, pose.orientation)
         if progress and todo:
@@ -277,7 +278,8 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             bar.close()
         if store is not None:
             store.close()
-    return open_run(out)
+    with deferred():
+        return open_run(out)
 
 
 def __getattr__(name):

@@ -373,40 +373,52 @@ def generate(spec, out, scheduler=None, workers: int | None = None, progress: bo
     t_start = time.perf_counter()
     out = Path(out).expanduser().resolve()
     out.mkdir(parents=True, exist_ok=True)
-    with handling_signals(), _Lock(out):
-        _check_folder(out, spec)
-        for stale in out.glob(f".{INDEX_DIR}.*"):  # left by a killed index write
-            shutil.rmtree(stale, ignore_errors=True)
-        items = spec.items()
-        records = [_record(out, spec, it) for it in items]
-        todo = [it for it, r in zip(items, records) if r["status"] != "complete"]
-        write_index(out, build_index(spec, records, "generation started"))
-        bar = None
-        if progress:
-            from tqdm.auto import tqdm
-
-            bar = tqdm(total=len(items), initial=len(items) - len(todo), desc=f"generate {spec.name}", unit="item")
-        summary = "generation interrupted"
-        try:
-            if todo:
-                _run_on_cluster(spec, out, todo, {r["id"]: r for r in records}, bar,
-                                _connect(scheduler, workers, len(todo), cluster_options), item_threads, retries)
-            summary = _summary(spec, records, time.perf_counter() - t_start)
-        except BaseException as exc:
-            if is_interrupt(exc):
-                complete = sum(r["status"] == "complete" for r in records)
-                raise DatasetInterrupted(as_interrupted(exc).signum, complete, len(records), out) from None
-            raise
-        finally:
-            if bar is not None:
-                bar.close()
-            index = build_index(spec, records, summary)
-            write_index(out, index)
+    items = spec.items()
+    records: list = []
+    try:
+        with handling_signals(), _Lock(out):
+            summary, index = _generate_locked(spec, out, items, records, scheduler, workers, progress, retries,
+                                              cluster_options, item_threads, t_start)
+    except BaseException as exc:
+        if is_interrupt(exc):
+            complete = sum(r["status"] == "complete" for r in records)
+            raise DatasetInterrupted(as_interrupted(exc).signum, complete, len(items), out) from None
+        raise
     if progress:
         print(summary, file=sys.stderr)
     if any(r["status"] == "failed" for r in records):
         warnings.warn(summary, DatasetWarning, stacklevel=2)
     return index
+
+
+def _generate_locked(spec, out, items, records, scheduler, workers, progress, retries, cluster_options,
+                     item_threads, t_start):
+    """The body of :func:`generate` under the folder's lock; fills ``records`` in place (the caller
+    counts the complete items when interrupted). Returns ``(summary, index)``."""
+    _check_folder(out, spec)
+    for stale in out.glob(f".{INDEX_DIR}.*"):  # left by a killed index write
+        shutil.rmtree(stale, ignore_errors=True)
+    for it in items:
+        records.append(_record(out, spec, it))
+    todo = [it for it, r in zip(items, records) if r["status"] != "complete"]
+    write_index(out, build_index(spec, records, "generation started"))
+    bar = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(items), initial=len(items) - len(todo), desc=f"generate {spec.name}", unit="item")
+    summary = "generation interrupted"
+    try:
+        if todo:
+            _run_on_cluster(spec, out, todo, {r["id"]: r for r in records}, bar,
+                            _connect(scheduler, workers, len(todo), cluster_options), item_threads, retries)
+        summary = _summary(spec, records, time.perf_counter() - t_start)
+    finally:
+        if bar is not None:
+            bar.close()
+        index = build_index(spec, records, summary)
+        write_index(out, index)
+    return summary, index
 
 
 def _run_on_cluster(spec, out, todo, by_id, bar, connection, item_threads, retries) -> None:
