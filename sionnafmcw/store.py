@@ -68,6 +68,15 @@ Resumable and never half-written: ``iq`` has one chunk per frame, and ``frame_do
 only after every array of frame ``f`` is written. Re-opening a store with the same settings
 skips the frames marked done and rewrites any other (a frame interrupted mid-write included);
 opening it with different settings is an error that says which attribute differs.
+
+Crash safety (any instant, SIGKILL included): a new store is built in a hidden sibling
+``.<name>.partial-<token>`` and renamed into place once its arrays and all its attributes (one
+metadata write) are complete, so a store at its path is always whole. One writer at a time holds
+``.<name>.lock`` (``{"host", "pid"}``; stale once that process is gone). Opening a store sweeps what
+killed writers left -- temporary stores beside it, ``*.partial`` chunk files inside it (Zarr writes a
+chunk to a temporary file and renames it) -- and never touches a frame marked done. A done frame
+whose chunks cannot be read raises :class:`CorruptFrameError` naming it; :func:`check_run` reads
+every done frame back and clears the done flag of the unreadable ones, so a resume recomputes them.
 """
 
 from __future__ import annotations
