@@ -65,8 +65,13 @@ from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, SynthesisAccuracy, choo
                        taylor_order)
 from .phase import PhasePolynomial
 
-#: Channels per finufft plan (union of their sources, one set-up); measured best on 2 cores.
+#: Channels per finufft plan (union of their sources, one set-up); measured best on 2 cores for
+#: walk frames (3: 0.25 s vs 0.37 s per plan per channel under load, 7k contributions) ...
 CHANNELS_PER_PLAN = 3
+#: ... up to this many contributions per channel; above, spreading the other channels' zero
+#: strengths costs more than the shared set-up saves (20k: 0.89 s with 1, 1.12 s with 3; 65k:
+#: 1.9 s vs 3.7 s), and every channel gets its own plan.
+SHARED_PLAN_MAX_SOURCES = 15_000
 #: finufft fine-grid upsampling factor at tolerances >= 1e-6 (below, finufft's own choice).
 UPSAMPFAC = 1.25
 
@@ -139,7 +144,7 @@ def _accuracy(channels, radar, max_error, nufft_tol, taylor_tol) -> SynthesisAcc
 
 def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUFFT_TOL,
                taylor_tol: float = TAYLOR_TOL, max_error: float | None = None,
-               channels_per_plan: int = CHANNELS_PER_PLAN, upsampfac: float | None = None,
+               channels_per_plan: int | None = None, upsampfac: float | None = None,
                precision: str | None = None) -> np.ndarray:
     """Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
 
@@ -149,8 +154,9 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Error budget per sample (sqrt(W)); the Taylor terms, finufft tolerance and precision are
         chosen to meet it (:func:`~sionnafmcw.synthesis.accuracy.choose_accuracy`). None keeps the
         tight relative ``nufft_tol`` / ``taylor_tol`` in double precision.
-    channels_per_plan : int
-        Channels sharing one finufft plan (1: a plan per channel).
+    channels_per_plan : int, optional
+        Channels sharing one finufft plan (1: a plan per channel); default
+        :data:`CHANNELS_PER_PLAN` up to :data:`SHARED_PLAN_MAX_SOURCES` contributions per channel, else 1.
     workers : int, optional
         Threads (default: CPU count, at most one per plan).
     precision : {"complex64", "complex128"}, optional
@@ -158,7 +164,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
 
     Returns complex64 when the budget allows single precision, complex128 otherwise.
     """
-    if channels_per_plan < 1:
+    if channels_per_plan is not None and channels_per_plan < 1:
         raise ValueError(f"beat_nufft: channels_per_plan must be >= 1, got {channels_per_plan!r}")
     L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
     grid = _Grid(radar)
@@ -207,6 +213,9 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
             cubes.append((c.m, c.n, cube))
         return cubes
 
+    if channels_per_plan is None:
+        largest = max(c.x.size for c in channels)
+        channels_per_plan = CHANNELS_PER_PLAN if largest <= SHARED_PLAN_MAX_SOURCES else 1
     groups = [channels[i:i + channels_per_plan] for i in range(0, len(channels), channels_per_plan)]
     workers = workers or min(len(groups), os.cpu_count() or 1)
     if workers > 1:
@@ -220,5 +229,5 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     return out
 
 
-__all__ = ["CHANNELS_PER_PLAN", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC", "beat_nufft",
+__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC", "beat_nufft",
            "synthesis_accuracy", "taylor_order"]
