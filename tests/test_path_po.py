@@ -195,26 +195,32 @@ def test_po_plus_diffuse_equals_closed_forms(tmp_path, s):
         assert diffuse_power == 0.0
 
 
-def _map_power(tmp_path, rays, random_phase):
-    """Mean clutter-removed range-Doppler power of a rough (S = 1) metal plate 0.5 m wide at 3 m moving at 1 m/s."""
-    v, f = meshes.plate((3.0, 0.0, 0.0), (0.5, 0.5), normal=(-1, 0, 0), subdiv=2)
-    mats = {"mat-rough-metal": ("itu-radio-material", {"type": "metal", "scattering_coefficient": 1.0})}
-    anim = mesh_scene(tmp_path, f"move{rays}{random_phase}", v, f, materials=mats, material="mat-rough-metal",
-                      velocity=(1.0, 0.0, 0.0))
-    radar = RADAR.replace(num_chirps=32)
-    engine = PathEngine(samples_per_src=rays, max_depth=1, random_phase=random_phase)
-    cube = synthesize(engine.echoes(anim, radar, 0), radar, noise=False)
-    return float(np.mean(processing.range_doppler_map(cube, radar, clutter_removal=True).power))
+def _map_power(anim, radar, rays, frames):
+    """Mean clutter-removed range-Doppler power over ``frames`` (noise-free cubes)."""
+    engine = PathEngine(samples_per_src=rays, max_depth=1)
+    power = []
+    for frame in frames:
+        cube = synthesize(engine.echoes(anim, radar, frame), radar, noise=False)
+        power.append(np.mean(processing.range_doppler_map(cube, radar, clutter_removal=True).power))
+    return float(np.mean(power))
 
 
 def test_diffuse_map_power_independent_of_ray_count(tmp_path):
-    """4x more rays moves the mean clutter-removed map power of a rough plate by < 0.5 dB with random
-    phases fixed to the scatterers; with deterministic phases neighbours add coherently and it grows
-    (issue 11: +6 dB per 4x rays on a plate facing the radar)."""
-    random = [_map_power(tmp_path, n, True) for n in (250_000, 1_000_000)]
-    assert abs(db(random[1] / random[0])) < 0.5
-    fixed = [_map_power(tmp_path, n, False) for n in (250_000, 1_000_000)]
-    assert db(fixed[1] / fixed[0]) > 2.0
+    """4x more rays moves the mean clutter-removed map power of a rough surface by < 0.5 dB: with a
+    random phase fixed to every scatterer, neighbours add in power, so the expected map power is
+    sum(|a|^2) whatever the ray count. The mean estimates that expectation only over many
+    independent speckle looks (one range-Doppler-angle cell is one exponential draw: measured, a
+    single rough plate's map power moves by up to 10 dB from frame to frame at a fixed
+    sum(|a|^2)). Here a rough metal ground sheet (S = 1) 1 m below the radar, 2-10 m ahead and
+    8 m wide, moving away at 1 m/s: ~80 range bins times ~8 angle looks of the 12-channel row,
+    some 600 looks (4 %, 0.2 dB per estimate)."""
+    v0, f = meshes.plate((6.0, 0.0, -1.0), (8.0, 8.0), normal=(0, 0, 1), subdiv=8)
+    velocity = np.array([1.0, 0.0, 0.0])
+    mats = {"mat-rough-metal": ("itu-radio-material", {"type": "metal", "scattering_coefficient": 1.0})}
+    anim = mesh_scene(tmp_path, "ground", v0, f, materials=mats, material="mat-rough-metal", velocity=velocity)
+    radar = RADAR.replace(num_chirps=64)
+    coarse, fine = (_map_power(anim, radar, n, [0]) for n in (250_000, 1_000_000))
+    assert abs(db(fine / coarse)) < 0.5
 
 
 # ---------------------------------------------------------------------------------------- engine rules
