@@ -17,7 +17,7 @@ STORE_ARRAYS = ("iq", "frame_time", "frame_done", "truth_position", "truth_veloc
 
 
 def sionnafmcw(*argv, fault: str | None = None, signal: str = "KILL", once: Path | None = None,
-               log: Path | None = None, cwd=None, timeout: float = 300.0) -> subprocess.CompletedProcess:
+               log: Path | None = None, cwd=None, timeout: float = 600.0) -> subprocess.CompletedProcess:
     """Run ``python -m sionnafmcw.cli ARGV`` in a new process; ``fault`` arms a fault point
     (``NAME[@COUNT]``) that sends the process ``signal`` (KILL, INT or TERM)."""
     env = {k: v for k, v in os.environ.items() if not k.startswith("SIONNAFMCW_FAULT")}
