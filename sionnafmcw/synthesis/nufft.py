@@ -207,7 +207,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         values = np.reshape(values, (len(group), len(terms), L, Ns))
         cubes = []
         for j, c in enumerate(group):
-            cube = values[j, 0] * basis_terms[0] if terms[0] != (0, 0, 0) else values[j, 0].copy()
+            cube = values[j, 0].copy()  # terms[0] is the constant monomial (basis 1)
             for t in range(1, len(terms)):
                 cube += values[j, t] * basis_terms[t]
             cubes.append((c.m, c.n, cube))
