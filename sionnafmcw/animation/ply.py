@@ -9,8 +9,14 @@ Mitsuba does). Per-vertex velocities (m/s, world frame, not transformed by ``to_
 properties ``vx, vy, vz``; a separate element ``velocity`` with properties ``vx, vy, vz`` is read
 as well, and must then have one entry per vertex.
 
+Per-vertex unit normals are the standard vertex properties ``nx, ny, nz`` (local frame, turned by
+``to_world`` like the positions): Mitsuba interpolates them across each triangle as the shading
+normal (unless the shape sets ``face_normals``), which is the smooth surface physical optics
+needs on a tessellated curved body (:mod:`sionnafmcw.physical_optics`).
+
 What :func:`write_ply` / :func:`ply_bytes` write: ``binary_little_endian``, ``vertex`` ``x y z``
-float [+ ``vx vy vz`` float], ``face`` ``list uchar int vertex_indices`` (triangles).
+float [+ ``nx ny nz`` float] [+ ``vx vy vz`` float], ``face`` ``list uchar int vertex_indices``
+(triangles).
 """
 
 from __future__ import annotations
@@ -85,6 +91,14 @@ class PlyData:
             props = self.elements.get(element, {})
             if all(k in props for k in ("vx", "vy", "vz")):
                 return np.stack([props["vx"], props["vy"], props["vz"]], axis=-1).astype(float)
+        return None
+
+    @property
+    def vertex_normals(self) -> np.ndarray | None:
+        """Per-vertex normal ``[V, 3]`` (``nx, ny, nz``, local frame), or None when the file has none."""
+        props = self.elements.get("vertex", {})
+        if all(k in props for k in ("nx", "ny", "nz")):
+            return np.stack([props["nx"], props["ny"], props["nz"]], axis=-1).astype(float)
         return None
 
 
@@ -241,6 +255,13 @@ def _check_ply(ply: PlyData) -> None:
                 raise AnimationError(
                     f"{path}: {count} vertex velocities (element '{element}', vx/vy/vz) for {nv} vertices"
                 )
+    have = [k for k in ("nx", "ny", "nz") if k in ply.elements["vertex"]]
+    if have and len(have) != 3:
+        raise AnimationError(f"{path}: element 'vertex' has normal properties {have}; nx, ny and nz are all needed")
+    normals = ply.vertex_normals
+    if normals is not None and not np.all(np.isfinite(normals)):
+        bad = int(np.argmax(~np.all(np.isfinite(normals), axis=1)))
+        raise AnimationError(f"{path}: non-finite vertex normal (nx, ny, nz) at vertex {bad}")
     vel = ply.vertex_velocities
     if vel is not None and not np.all(np.isfinite(vel)):
         bad = int(np.argmax(~np.all(np.isfinite(vel), axis=1)))
@@ -251,17 +272,27 @@ def _check_ply(ply: PlyData) -> None:
 
 
 
-def ply_bytes(vertices, faces, vertex_velocities=None, binary: bool = True) -> bytes:
-    """A triangle mesh (optionally with per-vertex ``vx, vy, vz``) as the bytes of a PLY file.
+def ply_bytes(vertices, faces, vertex_velocities=None, binary: bool = True, vertex_normals=None) -> bytes:
+    """A triangle mesh (optionally with per-vertex ``nx, ny, nz`` and ``vx, vy, vz``) as the bytes of a PLY file.
 
-    ``vertices`` ``[V, 3]`` and ``vertex_velocities`` ``[V, 3]`` are written as float32,
-    ``faces`` ``[F, 3]`` as int32; raises :class:`ValueError` when the velocity count is not the
-    vertex count.
+    ``vertices`` ``[V, 3]``, ``vertex_normals`` ``[V, 3]`` (unit, same frame as the vertices) and
+    ``vertex_velocities`` ``[V, 3]`` are written as float32, ``faces`` ``[F, 3]`` as int32; raises
+    :class:`ValueError` when the normal or velocity count is not the vertex count, or a normal is
+    not a finite unit vector.
     """
     v = np.asarray(vertices, dtype="<f4").reshape(-1, 3)
     f = np.asarray(faces, dtype="<i4").reshape(-1, 3)
     props = ["x", "y", "z"]
     cols = [v]
+    if vertex_normals is not None:
+        nrm = np.asarray(vertex_normals, dtype=float).reshape(-1, 3)
+        if nrm.shape[0] != v.shape[0]:
+            raise ValueError(f"PLY: {nrm.shape[0]} vertex normals for {v.shape[0]} vertices")
+        length = np.linalg.norm(nrm, axis=1)
+        if not np.all(np.isfinite(length)) or np.any(np.abs(length - 1.0) > 1e-3):
+            raise ValueError("PLY: vertex normals must be finite unit vectors (nx, ny, nz)")
+        props += ["nx", "ny", "nz"]
+        cols.append(nrm.astype("<f4"))
     if vertex_velocities is not None:
         vel = np.asarray(vertex_velocities, dtype="<f4").reshape(-1, 3)
         if vel.shape[0] != v.shape[0]:
@@ -284,11 +315,11 @@ def ply_bytes(vertices, faces, vertex_velocities=None, binary: bool = True) -> b
     return head + ("\n".join(lines) + "\n").encode("ascii")
 
 
-def write_ply(path, vertices, faces, vertex_velocities=None, binary: bool = True) -> Path:
+def write_ply(path, vertices, faces, vertex_velocities=None, binary: bool = True, vertex_normals=None) -> Path:
     """Write :func:`ply_bytes` to ``path`` (parent folders created); returns the path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(ply_bytes(vertices, faces, vertex_velocities, binary))
+    path.write_bytes(ply_bytes(vertices, faces, vertex_velocities, binary, vertex_normals))
     return path
 
 

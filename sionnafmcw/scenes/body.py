@@ -32,8 +32,32 @@ half-axes), scaled with H. Each segment is one closed mesh and one object:
 * ``left_upper_arm``, ``left_lower_arm`` (forearm and hand), ``left_upper_leg``,
   ``left_lower_leg`` (capsules), ``left_foot`` (ellipsoid), and the same ``right_...``.
 
-About 5.6k triangles in all: facets of 2-4 cm, coarse enough for the path engine, and the skin's
-``scattering_coefficient`` stands in for the finer curvature (see :mod:`sionnafmcw.engines.path`).
+Mesh resolution
+---------------
+Every triangle edge is at most ``mesh_edge`` (:data:`MESH_EDGE` = 8 mm by default;
+:func:`.meshes.ellipsoid_grid`, :func:`.meshes.capsule_divisions`), and the smooth vertex normals
+(:func:`.meshes.vertex_normals`, turned with each segment: :attr:`SegmentState.vertex_normals`)
+go to the PLYs for the renderer to interpolate. At 77 GHz (:math:`\lambda` = 3.9 mm) physical
+optics needs the facets to follow the skin to a fraction of a wavelength: the UV grid step
+:math:`e/\sqrt2` = 5.7 mm leaves a sagitta :math:`h^2/8\rho` of 0.11 mm on the forearm
+(:math:`\rho` = 36 mm), below :math:`\lambda/25` = 0.16 mm, and less on every larger limb.
+The default comes from the convergence of the body's monostatic PO + diffuse RCS (gait phase 0,
+radar 1 m high; ``benchmarks/body_rcs.py convergence``): change against 4 mm edges (768k triangles),
+dB, at 3 m / 10 m and aspects 0, 30, 90, 150, 180 deg:
+
+==========  =========  ============================================  ==========
+edge (mm)   triangles  change at 3 m (0/30/90/150/180 deg)           max |dB|
+==========  =========  ============================================  ==========
+32          12 008     +0.6 / +2.5 / -3.3 / -9.0 / +1.7              9.0
+16          47 742     -1.0 / -2.9 / +3.2 / -0.8 / +1.9              3.4
+12          85 552     -0.5 / -1.8 / -1.3 / -0.1 / +1.9              2.8
+8           191 276    -0.1 / -0.1 / +0.0 / +0.3 / +0.5              0.9
+6           341 556    -0.1 / -0.0 / +0.5 / -0.0 / +0.3              0.5
+==========  =========  ============================================  ==========
+
+(the max column covers both ranges). Coarser meshes (``mesh_edge`` up to 0.2 m, e.g. the former
+2-4 cm facets, 5-12k triangles) still serve the path engine's diffuse model, whose
+``scattering_coefficient`` stands in for the curvature (:mod:`sionnafmcw.engines.path`).
 
 Kinematic chain
 ---------------
@@ -89,6 +113,10 @@ from .gait import RV_MAX, BoulicGait, GaitTiming
 #: Central-difference step (s) for velocities.
 VELOCITY_STEP = 1e-5
 
+#: Default largest triangle edge (m) of the body meshes, from the PO convergence study
+#: (module docstring, *Mesh resolution*).
+MESH_EDGE = 0.008
+
 # ----------------------------------------------------------------------------- anthropometry
 RATIOS = {
     "thigh": 0.245, "shank": 0.246, "ankle_height": 0.039, "foot_length": 0.152, "heel": 0.031,
@@ -132,27 +160,60 @@ class Anthropometry:
         return (RATIOS["thigh"] + RATIOS["shank"]) * self.height
 
 
-def segment_meshes(body: Anthropometry) -> dict:
-    """``{segment: (vertices [V,3], faces [F,3])}`` in each segment's own frame (m).
+def segment_shapes(body: Anthropometry) -> dict:
+    """``{segment: ("ellipsoid", centre, radii) | ("capsule", p0, p1, radius)}`` in each segment's own
+    frame (m): the smooth surfaces that :func:`segment_meshes` tessellates."""
+    H = body.height
+    out = {
+        "torso": ("ellipsoid", (0.0, 0.0, 0.165 * H), (0.06 * H, 0.095 * H, 0.135 * H)),
+        "pelvis": ("ellipsoid", (0.0, 0.0, 0.0), (0.06 * H, 0.095 * H, 0.065 * H)),
+        "head": ("ellipsoid", (0.01 * H, 0.0, body.torso + 0.075 * H), (0.055 * H, 0.045 * H, 0.065 * H)),
+    }
+    foot_centre = (0.5 * body.foot_length - body.heel, 0.0, -0.5 * body.ankle_height)
+    for side in SIDES:
+        out[f"{side}_upper_arm"] = ("capsule", (0, 0, 0), (0, 0, -body.upper_arm), 0.025 * H)
+        out[f"{side}_lower_arm"] = ("capsule", (0, 0, 0), (0, 0, -(body.forearm + 0.5 * body.hand)), 0.020 * H)
+        out[f"{side}_upper_leg"] = ("capsule", (0, 0, 0), (0, 0, -body.thigh), 0.035 * H)
+        out[f"{side}_lower_leg"] = ("capsule", (0, 0, 0), (0, 0, -body.shank), 0.025 * H)
+        out[f"{side}_foot"] = ("ellipsoid", foot_centre,
+                               (0.5 * body.foot_length, 0.0275 * H, 0.5 * body.ankle_height))
+    return out
+
+
+def smallest_curvature_radius(body: Anthropometry) -> float:
+    """Smallest radius of curvature (m) of the body's surfaces: the foot's :math:`c^2/a` at the
+    toe and heel and the capsules' radii (the forearm's 0.020 H), the bound the PO render
+    resolution and the sagitta rule need."""
+    radii = []
+    for shape in segment_shapes(body).values():
+        if shape[0] == "capsule":
+            radii.append(shape[3])
+        else:
+            a, b, c = sorted(shape[2])
+            radii.append(a * a / c)
+    return float(min(radii))
+
+
+def segment_meshes(body: Anthropometry, max_edge: float | None = None) -> dict:
+    """``{segment: (vertices [V,3], faces [F,3])}`` in each segment's own frame (m), every triangle
+    edge at most ``max_edge`` (m; default :data:`MESH_EDGE`; :func:`.meshes.ellipsoid_grid`,
+    :func:`.meshes.capsule_divisions`).
 
     Frames: ``torso``, ``head`` -- upper body at :math:`O_s`; ``pelvis`` -- pelvis at :math:`O_s`;
     arms and legs -- the proximal joint, the segment along local :math:`-z`; feet -- the ankle.
     """
-    H = body.height
-    out = {
-        "torso": meshes.ellipsoid((0.0, 0.0, 0.165 * H), (0.06 * H, 0.095 * H, 0.135 * H), n_rings=16, n_segments=32),
-        "pelvis": meshes.ellipsoid((0.0, 0.0, 0.0), (0.06 * H, 0.095 * H, 0.065 * H), n_rings=12, n_segments=24),
-        "head": meshes.ellipsoid((0.01 * H, 0.0, body.torso + 0.075 * H), (0.055 * H, 0.045 * H, 0.065 * H),
-                                 n_rings=12, n_segments=24),
-    }
-    foot_centre = (0.5 * body.foot_length - body.heel, 0.0, -0.5 * body.ankle_height)
-    for side in SIDES:
-        out[f"{side}_upper_arm"] = meshes.capsule((0, 0, 0), (0, 0, -body.upper_arm), 0.025 * H)
-        out[f"{side}_lower_arm"] = meshes.capsule((0, 0, 0), (0, 0, -(body.forearm + 0.5 * body.hand)), 0.020 * H)
-        out[f"{side}_upper_leg"] = meshes.capsule((0, 0, 0), (0, 0, -body.thigh), 0.035 * H)
-        out[f"{side}_lower_leg"] = meshes.capsule((0, 0, 0), (0, 0, -body.shank), 0.025 * H)
-        out[f"{side}_foot"] = meshes.ellipsoid(foot_centre, (0.5 * body.foot_length, 0.0275 * H, 0.5 * body.ankle_height),
-                                              n_rings=10, n_segments=20)
+    max_edge = MESH_EDGE if max_edge is None else float(max_edge)
+    if not (0.001 <= max_edge <= 0.2):
+        raise ValueError(f"segment_meshes: max_edge {max_edge!r} m outside 0.001..0.2 m")
+    out = {}
+    for name, shape in segment_shapes(body).items():
+        if shape[0] == "ellipsoid":
+            theta, phi = meshes.ellipsoid_grid(shape[2], max_edge)
+            out[name] = meshes.ellipsoid(shape[1], shape[2], theta=theta, phi=phi)
+        else:
+            p0, p1, radius = np.asarray(shape[1], float), np.asarray(shape[2], float), shape[3]
+            n_segments, n_cap, n_body = meshes.capsule_divisions(float(np.linalg.norm(p1 - p0)), radius, max_edge)
+            out[name] = meshes.capsule(p0, p1, radius, n_segments=n_segments, n_cap=n_cap, n_body=n_body)
     return out
 
 
@@ -203,19 +264,21 @@ class CircleTrack:
 @dataclass
 class SegmentState:
     """One segment at one time: world ``vertices`` [V,3], ``vertex_velocities`` [V,3] (m/s),
-    area-weighted ``centroid`` [3] and its ``velocity`` [3] (m/s)."""
+    area-weighted ``centroid`` [3] and its ``velocity`` [3] (m/s), smooth unit ``vertex_normals`` [V,3]."""
 
     vertices: np.ndarray
     vertex_velocities: np.ndarray
     centroid: np.ndarray
     velocity: np.ndarray
+    vertex_normals: np.ndarray | None = None
 
 
 @dataclass
 class WalkingPerson:
     """A person of ``height`` (m) walking ``track`` at ``speed`` (m/s), gait phase ``phase0`` (cycles) at t = 0.
 
-    ``rv_max`` caps the relative velocity that shapes the gait (:mod:`.gait`). All methods are
+    ``rv_max`` caps the relative velocity that shapes the gait (:mod:`.gait`); ``mesh_edge`` is the
+    largest triangle edge (m) of the segment meshes (:data:`MESH_EDGE`). All methods are
     pure numpy: :meth:`poses` (segment rotations and origins), :meth:`segment_state` (world
     meshes and velocities), :meth:`truth` (centroid positions and velocities of every segment,
     the analytic ground truth).
@@ -226,14 +289,18 @@ class WalkingPerson:
     track: object = field(default_factory=LineTrack)
     phase0: float = 0.0
     rv_max: float = RV_MAX
+    mesh_edge: float = MESH_EDGE
 
     def __post_init__(self):
         if not (0.5 <= self.height <= 2.5):
             raise ValueError(f"WalkingPerson: height {self.height} m outside 0.5..2.5 m")
+        if not (0.001 <= self.mesh_edge <= 0.2):
+            raise ValueError(f"WalkingPerson: mesh_edge {self.mesh_edge!r} m outside 0.001..0.2 m")
         self.body = Anthropometry(self.height)
         self.timing = GaitTiming(self.speed, self.body.thigh_height, self.rv_max)
         self.gait = BoulicGait(self.timing.rv_shape)
-        self.local_meshes = segment_meshes(self.body)
+        self.local_meshes = segment_meshes(self.body, self.mesh_edge)
+        self.local_normals = {k: meshes.vertex_normals(*m) for k, m in self.local_meshes.items()}
         self.local_centroids = {k: _area_centroid(*m) for k, m in self.local_meshes.items()}
         self.hip_height = self._floor_contact_height()
 
@@ -318,6 +385,7 @@ class WalkingPerson:
                 vertex_velocities=(v_local @ ra.T + oa - v_local @ rb.T - ob) / (2 * h),
                 centroid=r @ c_local + o,
                 velocity=(ra @ c_local + oa - rb @ c_local - ob) / (2 * h),
+                vertex_normals=self.local_normals[k] @ r.T,
             )
         return out
 
@@ -338,6 +406,19 @@ class WalkingPerson:
     def faces(self, segment: str) -> np.ndarray:
         return self.local_meshes[segment][1]
 
+    def body_mesh(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The whole body at time ``t`` as one world mesh: ``(vertices [V,3], faces [F,3],
+        vertex_normals [V,3], segment_of_face [F])`` (index into :data:`SEGMENTS`)."""
+        vs, fs, ns, seg, off = [], [], [], [], 0
+        for i, (k, (r, o)) in enumerate((k, self.poses(t)[k]) for k in SEGMENTS):
+            v_local, f = self.local_meshes[k]
+            vs.append(v_local @ r.T + o)
+            ns.append(self.local_normals[k] @ r.T)
+            fs.append(f + off)
+            seg.append(np.full(len(f), i))
+            off += len(v_local)
+        return np.concatenate(vs), np.concatenate(fs), np.concatenate(ns), np.concatenate(seg)
+
 
 def radial_velocities(positions, velocities, radar_position) -> np.ndarray:
     r"""Range rate :math:`\dot R = \hat{\mathbf r}\cdot\mathbf v` (m/s, + receding) of points seen from ``radar_position``."""
@@ -345,5 +426,6 @@ def radial_velocities(positions, velocities, radar_position) -> np.ndarray:
     return np.einsum("...i,...i->...", d, np.asarray(velocities, float)) / np.linalg.norm(d, axis=-1)
 
 
-__all__ = ["Anthropometry", "CircleTrack", "LineTrack", "RATIOS", "SEGMENTS", "SegmentState", "VELOCITY_STEP",
-           "WalkingPerson", "radial_velocities", "segment_meshes"]
+__all__ = ["Anthropometry", "CircleTrack", "LineTrack", "MESH_EDGE", "RATIOS", "SEGMENTS", "SegmentState",
+           "VELOCITY_STEP", "WalkingPerson", "radial_velocities", "segment_meshes", "segment_shapes",
+           "smallest_curvature_radius"]

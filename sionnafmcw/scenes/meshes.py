@@ -12,6 +12,16 @@ r"""Closed triangle meshes for scene builders (outward winding, numpy only).
   ``2 n_segments (2 n_cap + n_body)`` triangles or so.
 
 All return ``(vertices [V, 3] float64, faces [F, 3] int64)``.
+
+Resolution. :func:`ellipsoid_grid` and :func:`capsule_divisions` choose the rings and
+meridians from a largest triangle edge :math:`e`: a UV cell of sides :math:`h_u, h_v`
+splits into two triangles whose longest edge is the diagonal :math:`\sqrt{h_u^2 + h_v^2}`, so
+both sides are kept below :math:`e/\sqrt2` (arcs of equal length along the equator and
+the longest meridian; sheared ellipsoid cells are refined until their diagonal fits).
+The chord of an arc of radius :math:`\rho` and length :math:`h` departs from the arc by the
+sagitta :math:`h^2/(8\rho)` (:func:`sagitta`). :func:`vertex_normals` gives the smooth
+(area-weighted) normals a renderer interpolates across the facets; :func:`edge_lengths` the
+edges of a mesh.
 """
 
 from __future__ import annotations
@@ -99,14 +109,19 @@ def trihedral(corner, leg: float, rotation=None, subdiv: int = 2):
     return v + np.asarray(corner, float), np.concatenate(faces)
 
 
-def ellipsoid(center, radii, n_rings: int = 12, n_segments: int = 24, rotation=None):
-    """Closed UV ellipsoid (semi-axes ``radii`` along the local x, y, z axes), outward winding."""
-    theta = np.linspace(0.0, np.pi, n_rings + 1)[1:-1]
-    phi = np.linspace(0.0, 2 * np.pi, n_segments, endpoint=False)
+def ellipsoid(center, radii, n_rings: int = 12, n_segments: int = 24, rotation=None, theta=None, phi=None):
+    """Closed UV ellipsoid (semi-axes ``radii`` along the local x, y, z axes), outward winding.
+
+    Rings at the polar angles ``theta`` (rad, strictly between 0 and pi, increasing; default
+    ``n_rings - 1`` equal steps) and meridians at the azimuths ``phi`` (rad in [0, 2 pi), increasing;
+    default ``n_segments`` equal steps): :func:`ellipsoid_grid` spaces them by arc length.
+    """
+    theta = np.linspace(0.0, np.pi, n_rings + 1)[1:-1] if theta is None else np.asarray(theta, float)
+    phi = np.linspace(0.0, 2 * np.pi, n_segments, endpoint=False) if phi is None else np.asarray(phi, float)
     tt, pp = np.meshgrid(theta, phi, indexing="ij")
     ring = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], -1).reshape(-1, 3)
     unit = np.vstack([[0.0, 0.0, 1.0], ring, [0.0, 0.0, -1.0]])
-    faces = _sphere_faces(n_rings - 1, n_segments)
+    faces = _sphere_faces(len(theta), len(phi))
     v = unit * np.asarray(radii, float)
     if rotation is not None:
         v = v @ np.asarray(rotation, float).T
@@ -153,6 +168,99 @@ def capsule(p0, p1, radius: float, n_segments: int = 16, n_cap: int = 4, n_body:
     return np.array(verts), faces
 
 
+def ellipse_perimeter(a: float, b: float) -> float:
+    r"""Perimeter (m) of an ellipse of semi-axes ``a, b`` (Ramanujan's second formula,
+    :math:`\pi(a+b)(1 + 3h/(10 + \sqrt{4 - 3h}))`, :math:`h = (a-b)^2/(a+b)^2`, relative error < 1e-9
+    for the body's axis ratios)."""
+    a, b = float(a), float(b)
+    h = (a - b) ** 2 / (a + b) ** 2
+    return float(np.pi * (a + b) * (1 + 3 * h / (10 + np.sqrt(4 - 3 * h))))
+
+
+def _count(length: float, spacing: float, minimum: int) -> int:
+    return max(minimum, int(np.ceil(length / spacing - 1e-9)))
+
+
+def _equal_arc_angles(a: float, b: float, start: float, stop: float, spacing: float, minimum: int) -> np.ndarray:
+    """Parameters ``t_0 = start < ... < t_n = stop`` of the curve ``(a cos t, b sin t)`` cutting it into
+    ``n >= minimum`` arcs of equal length, each at most ``spacing`` (m)."""
+    t = np.linspace(start, stop, 4097)
+    speed = np.hypot(a * np.sin(t), b * np.cos(t))
+    arc = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
+    n = _count(arc[-1], spacing, minimum)
+    return np.interp(np.linspace(0.0, arc[-1], n + 1), arc, t)
+
+
+def ellipsoid_grid(radii, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
+    r"""Ring polar angles ``theta`` and meridian azimuths ``phi`` (rad) of an :func:`ellipsoid` whose
+    triangle edges stay below ``max_edge`` (m).
+
+    Azimuths cut the equator :math:`(a\cos\varphi, b\sin\varphi)` into equal arcs of at most
+    :math:`h = e/\sqrt2` (every other ring is the equator scaled by :math:`\sin\vartheta`, its arcs
+    shorter); polar angles cut the meridian :math:`(R\sin\vartheta, c\cos\vartheta)`,
+    :math:`R = \max(a, b)`, into equal arcs of at most :math:`h`: every meridian moves at most as
+    fast in :math:`\vartheta` as this one, so every cell side is at most :math:`h`. Where the
+    ellipsoid is not one of revolution its cells are sheared and their diagonal can exceed
+    :math:`\sqrt2 h`: :math:`h` is then shrunk until the longest edge of the mesh is at most :math:`e`.
+    """
+    if not max_edge > 0:
+        raise ValueError(f"ellipsoid_grid: max_edge must be > 0 m, got {max_edge!r}")
+    a, b, c = (float(r) for r in radii)
+    h = max_edge / np.sqrt(2.0)
+    for _ in range(8):
+        phi = _equal_arc_angles(a, b, 0.0, 2 * np.pi, h, 8)[:-1]
+        # meridian (R sin th, c cos th) = (c cos th, R sin th) mirrored: speed sqrt(R^2 cos^2 + c^2 sin^2)
+        theta = _equal_arc_angles(c, max(a, b), 0.0, np.pi, h, 4)[1:-1]
+        longest = float(edge_lengths(*ellipsoid((0, 0, 0), (a, b, c), theta=theta, phi=phi)).max())
+        if longest <= max_edge:
+            break
+        h *= 0.99 * max_edge / longest
+    return theta, phi
+
+
+def ellipsoid_divisions(radii, max_edge: float) -> tuple[int, int]:
+    """``(n_rings, n_segments)`` of :func:`ellipsoid_grid` (ring intervals pole to pole, meridians)."""
+    theta, phi = ellipsoid_grid(radii, max_edge)
+    return len(theta) + 1, len(phi)
+
+
+def capsule_divisions(length: float, radius: float, max_edge: float) -> tuple[int, int, int]:
+    """``(n_segments, n_cap, n_body)`` of :func:`capsule` whose triangle edges stay below ``max_edge`` (m):
+    circumference, quarter-circle cap meridian and cylinder length divided into steps of at most
+    ``max_edge / sqrt(2)``."""
+    if not max_edge > 0:
+        raise ValueError(f"capsule_divisions: max_edge must be > 0 m, got {max_edge!r}")
+    h = max_edge / np.sqrt(2.0)
+    return (_count(2 * np.pi * radius, h, 8), _count(0.5 * np.pi * radius, h, 2), _count(length, h, 1))
+
+
+def sagitta(edge: float, curvature_radius: float) -> float:
+    r"""Largest distance (m) between a chord of length ``edge`` and its arc of radius ``curvature_radius``:
+    :math:`\rho - \sqrt{\rho^2 - e^2/4} \approx e^2/(8\rho)`."""
+    return float(curvature_radius - np.sqrt(max(curvature_radius ** 2 - 0.25 * edge ** 2, 0.0)))
+
+
+def edge_lengths(vertices, faces) -> np.ndarray:
+    """Lengths ``[F, 3]`` (m) of every triangle's three edges."""
+    tri = np.asarray(vertices, float)[np.asarray(faces)]
+    return np.linalg.norm(tri - np.roll(tri, -1, axis=1), axis=-1)
+
+
+def vertex_normals(vertices, faces) -> np.ndarray:
+    """Smooth unit normals ``[V, 3]``: the area-weighted mean of the outward normals of the triangles
+    around each vertex (what a renderer interpolates as shading normals; a vertex in no triangle
+    gets ``(0, 0, 1)``)."""
+    v, f = np.asarray(vertices, float), np.asarray(faces)
+    cross = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+    out = np.zeros_like(v)
+    for i in range(3):
+        np.add.at(out, f[:, i], cross)
+    norm = np.linalg.norm(out, axis=1, keepdims=True)
+    out = np.divide(out, norm, out=np.zeros_like(out), where=norm > 0)
+    out[norm[:, 0] == 0] = (0.0, 0.0, 1.0)
+    return out
+
+
 def merge(*meshes):
     """Concatenate ``(vertices, faces)`` pairs into one mesh."""
     vs, fs, off = [], [], 0
@@ -169,4 +277,6 @@ def signed_volume(vertices, faces) -> float:
     return float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0)
 
 
-__all__ = ["box", "capsule", "ellipsoid", "merge", "plate", "signed_volume", "trihedral"]
+__all__ = ["box", "capsule", "capsule_divisions", "edge_lengths", "ellipse_perimeter", "ellipsoid",
+           "ellipsoid_divisions", "ellipsoid_grid", "merge", "plate", "sagitta", "signed_volume", "trihedral",
+           "vertex_normals"]

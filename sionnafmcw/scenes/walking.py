@@ -21,6 +21,11 @@ velocities in its PLY and its centroid velocity in the manifest. The radar is Si
     Towards (or away from) a radar on the track, starting ``start_range`` metres in front of it
     with a ``lateral_offset`` to the side, at ``speed`` (default 1.4 m/s, a normal walk).
 
+The body meshes have triangle edges of at most ``body_mesh_edge`` (default
+:data:`~.body.MESH_EDGE`, from the physical-optics convergence study of the body's RCS at 77 GHz,
+``benchmarks/body_rcs.py``); every frame's PLYs carry smooth vertex normals when the animation
+writer passes them on (``vertex_normals`` of each moving object).
+
 Both put the scene in a closed room (``room=True``, ITU concrete walls, floorboard floor,
 plasterboard ceiling, valid at 77 GHz) large enough for the walk plus ``room_margin``.
 """
@@ -31,7 +36,7 @@ import math
 
 import numpy as np
 
-from .body import SEGMENTS, CircleTrack, LineTrack, WalkingPerson
+from .body import MESH_EDGE, SEGMENTS, CircleTrack, LineTrack, WalkingPerson
 from .gait import RV_MAX
 from .registry import Parameter, register
 from .room import CEILING_MATERIALS, FLOOR_MATERIALS, WALL_MATERIALS, add_room
@@ -44,6 +49,8 @@ _PERSON = {
     "rv_max": Parameter(RV_MAX, float, "1/s", "largest relative velocity V/H_t that shapes the gait (Boulic: 3)",
                         low=0.1, high=RV_MAX),
     "skin_scattering": Parameter(0.3, float, "", "diffuse scattering coefficient of the skin", low=0.0, high=1.0),
+    "body_mesh_edge": Parameter(MESH_EDGE, float, "m", "largest triangle edge of the body meshes (default from the "
+                                "PO convergence study at 77 GHz; coarser meshes write smaller PLYs)", low=0.002, high=0.1),
 }
 _ROOM = {
     "room": Parameter(True, bool, "", "put the walk in a closed room (walls, floor, ceiling)"),
@@ -70,7 +77,8 @@ def write_person(out, person: WalkingPerson, num_frames: int, fps: float, radar_
     for i in range(num_frames):
         state = person.segment_state(i / fps)
         w.frame([{"name": k, "vertices": state[k].vertices, "faces": person.faces(k), "material": SKIN,
-                  "velocity": state[k].velocity, "vertex_velocities": state[k].vertex_velocities} for k in SEGMENTS])
+                  "velocity": state[k].velocity, "vertex_velocities": state[k].vertex_velocities,
+                  "vertex_normals": state[k].vertex_normals} for k in SEGMENTS])
     w.finish(radar_position, look_at_orientation(radar_position, radar_target))
 
 
@@ -79,10 +87,10 @@ def _room_options(p):
 
 
 def circle_person(radius=3.0, laps=1.0, num_frames=100, fps=24.0, start_angle=-math.pi / 2, clockwise=False,
-                  person_height=1.8, phase0=0.0, rv_max=RV_MAX) -> WalkingPerson:
+                  person_height=1.8, phase0=0.0, rv_max=RV_MAX, body_mesh_edge=MESH_EDGE) -> WalkingPerson:
     """The person of ``circle_walk`` (centre at the origin): the analytic model behind the scenario."""
     speed = 2 * math.pi * radius * laps * fps / num_frames
-    return WalkingPerson(height=person_height, speed=speed, phase0=phase0, rv_max=rv_max,
+    return WalkingPerson(height=person_height, speed=speed, phase0=phase0, rv_max=rv_max, mesh_edge=body_mesh_edge,
                          track=CircleTrack((0.0, 0.0), radius, start_angle, clockwise))
 
 
@@ -99,13 +107,14 @@ def circle_person(radius=3.0, laps=1.0, num_frames=100, fps=24.0, start_angle=-m
     "fps": Parameter(24.0, float, "1/s", "frame rate", low=1e-3, high=1e4),
 })
 def circle_walk(out, radius, laps, start_angle, clockwise, radar_distance, radar_height, person_height, phase0,
-                rv_max, skin_scattering, room, room_margin, room_height, wall_material, floor_material,
+                rv_max, skin_scattering, body_mesh_edge, room, room_margin, room_height, wall_material, floor_material,
                 ceiling_material, wall_scattering, num_frames, fps):
     """Track speed :math:`V = 2\\pi R\\,laps\\,fps/N`; radar at ``(-radar_distance, 0, radar_height)`` looking at the centre."""
     if radar_distance <= radius + 0.5:
         raise ValueError(f"circle_walk: radar_distance={radar_distance} m must exceed radius + 0.5 m = {radius + 0.5} m "
                          "(the radar stands outside the circle)")
-    person = circle_person(radius, laps, num_frames, fps, start_angle, clockwise, person_height, phase0, rv_max)
+    person = circle_person(radius, laps, num_frames, fps, start_angle, clockwise, person_height, phase0, rv_max,
+                           body_mesh_edge)
     radar = np.array([-radar_distance, 0.0, radar_height])
     box = None
     if room:
@@ -116,10 +125,10 @@ def circle_walk(out, radius, laps, start_angle, clockwise, radar_distance, radar
 
 
 def straight_person(start_range=6.0, lateral_offset=0.0, direction="towards", speed=1.4, person_height=1.8,
-                    phase0=0.0, rv_max=RV_MAX) -> WalkingPerson:
+                    phase0=0.0, rv_max=RV_MAX, body_mesh_edge=MESH_EDGE) -> WalkingPerson:
     """The person of ``straight_walk`` (radar at the origin looking along +x)."""
     heading = math.pi if direction == "towards" else 0.0
-    return WalkingPerson(height=person_height, speed=speed, phase0=phase0, rv_max=rv_max,
+    return WalkingPerson(height=person_height, speed=speed, phase0=phase0, rv_max=rv_max, mesh_edge=body_mesh_edge,
                          track=LineTrack((start_range, lateral_offset), heading))
 
 
@@ -134,7 +143,8 @@ def straight_person(start_range=6.0, lateral_offset=0.0, direction="towards", sp
     "fps": Parameter(24.0, float, "1/s", "frame rate", low=1e-3, high=1e4),
 })
 def straight_walk(out, start_range, lateral_offset, direction, speed, radar_height, person_height, phase0, rv_max,
-                  skin_scattering, room, room_margin, room_height, wall_material, floor_material, ceiling_material,
+                  skin_scattering, body_mesh_edge, room, room_margin, room_height, wall_material, floor_material,
+                  ceiling_material,
                   wall_scattering, num_frames, fps):
     """Radar at ``(0, 0, radar_height)`` looking along +x; the track runs along x at ``y = lateral_offset``."""
     duration = (num_frames - 1) / fps
@@ -144,7 +154,8 @@ def straight_walk(out, start_range, lateral_offset, direction, speed, radar_heig
         raise ValueError(f"straight_walk: walking {direction} at {speed} m/s for {duration:.3f} s from {start_range} m "
                          f"ends at {end_range:.3f} m, closer than 0.5 m to the radar; use fewer frames or a larger "
                          "start_range")
-    person = straight_person(start_range, lateral_offset, direction, speed, person_height, phase0, rv_max)
+    person = straight_person(start_range, lateral_offset, direction, speed, person_height, phase0, rv_max,
+                             body_mesh_edge)
     radar = np.array([0.0, 0.0, radar_height])
     box = None
     if room:
@@ -166,7 +177,7 @@ def person_for(name: str, **params) -> WalkingPerson:
     if name not in ("circle_walk", "straight_walk"):
         raise ValueError(f"person_for: scenario {name!r} has no walking person; choose circle_walk or straight_walk")
     p = resolve(name, params)
-    common = {k: p[k] for k in ("person_height", "phase0", "rv_max")}
+    common = {k: p[k] for k in ("person_height", "phase0", "rv_max", "body_mesh_edge")}
     if name == "circle_walk":
         return circle_person(p["radius"], p["laps"], p["num_frames"], p["fps"], p["start_angle"], p["clockwise"],
                              **common)
