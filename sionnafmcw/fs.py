@@ -200,7 +200,7 @@ class LockFile:
             except FileNotFoundError:
                 return True
         if other.get("host") == self.me["host"]:
-            return not _alive(other.get("pid"))
+            return not process_alive(other.get("pid"))
         try:
             return time.time() - self.path.stat().st_mtime > STALE_AFTER
         except FileNotFoundError:
@@ -250,7 +250,8 @@ class LockFile:
         self.release()
 
 
-def _alive(pid) -> bool:
+def process_alive(pid) -> bool:
+    """True while process ``pid`` of this machine runs (a zombie, killed but not reaped, counts as gone)."""
     if not isinstance(pid, int) or pid <= 0:
         return False
     try:
@@ -267,4 +268,4 @@ def _alive(pid) -> bool:
 
 
 __all__ = ["LockBusy", "LockFile", "STALE_AFTER", "atomic_directory", "atomic_write_bytes", "atomic_write_text",
-           "leftovers", "sweep_leftovers", "sweep_partial_files"]
+           "leftovers", "process_alive", "sweep_leftovers", "sweep_partial_files"]

@@ -47,10 +47,6 @@ def world_phase_centre(radar, position, orientation) -> np.ndarray:
     return radar_to_world(array.phase_centre(radar), position, orientation)
 
 
-# transitional alias (issue 10): removed at integration
-phase_centre = world_phase_centre
-
-
 def radial_velocity(positions, velocities, origin) -> np.ndarray:
     r"""Range rate :math:`\dot R = (\mathbf p - \mathbf o)\cdot\mathbf v / \|\mathbf p - \mathbf o\|` (m/s, positive receding)."""
     d = np.asarray(positions, float) - np.asarray(origin, float)

@@ -399,7 +399,7 @@ def plot_scene_top_view(animation, radar=None, radar_pose=None, frames=None, obj
     # static meshes of the first frame, projected on the floor
     f0 = frames[0]
     fills, segments = [], []
-    for name, shape in animation.scene(f0).shapes.items():
+    for name, shape in animation.frame_xml(f0).shapes.items():
         if name in objects or shape.type != "ply":
             continue
         mesh = animation.mesh(f0, name)

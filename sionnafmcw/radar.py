@@ -27,7 +27,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 

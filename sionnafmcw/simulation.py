@@ -198,6 +198,8 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
         ones for recomputation (:func:`sionnafmcw.store.check_run`)
     wait : seconds to wait for another live process writing ``out`` to finish (then resume what it left)
 
+    Notes
+    -----
     Crash safety. Everything is checked before anything is written: the arguments, the frame
     selection, the materials at the carrier, every moving object inside the radar's maximum range
     (:class:`SimulationError` otherwise) and the memory of one frame (:func:`frame_memory`) against
@@ -281,9 +283,3 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
     with deferred():
         return open_run(out)
 
-
-def __getattr__(name):
-    # ENGINES: the registered engine names, for callers written before the registry (issue 10)
-    if name == "ENGINES":
-        return tuple(engines.names())
-    raise AttributeError(f"module 'sionnafmcw.simulation' has no attribute {name!r}")

@@ -26,6 +26,8 @@ here, so that an upgrade of Sionna is a change of this file (and of the pins in
   ``PathSolver.__call__`` up to the path buffer, without building the ``Paths`` tensors (whose
   kernels bake the per-frame path count in as a constant), with the candidate count read from
   the buffer's public ``paths_counter``.
+* **Ray casting** (:func:`cast_rays`): Mitsuba's first-hit query on the loaded scene, with inputs
+  in aligned buffers so that the kernels do not change from frame to frame.
 * **Kernel tracking** (:func:`track_kernels`): Dr.Jit kernel launches of a block.
 """
 
@@ -37,6 +39,8 @@ import warnings
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
+
+import numpy as np
 
 from ._llvm import configure_llvm
 
@@ -115,6 +119,11 @@ check_versions()
 # ---------------------------------------------------------------------------------------- segment length
 #: Sionna's path-solver modules that copy ``MIN_SEGMENT_LENGTH`` at import.
 MIN_SEGMENT_LENGTH_MODULES = (_image_method, _candidate_generator, _deterministic)
+
+
+def set_thread_count(threads: int) -> None:
+    """Size of Dr.Jit's thread pool in this process (the LLVM backend's worker threads)."""
+    dr.set_thread_count(int(threads))
 
 
 def set_min_segment_length(length: float) -> None:
@@ -257,6 +266,55 @@ class KernelCounts:
     launched: int = 0
     compiled: int = 0
     new: int = 0
+
+
+def aligned_float(values) -> "mi.Float":
+    """``values`` as a Dr.Jit Float from a 64-byte aligned float32 copy.
+
+    Dr.Jit reads numpy memory as it is and compiles the alignment of each input into the
+    kernel (``align 1`` vs ``align 64``): inputs with varying alignment would give the same
+    ray cast a new kernel hash (a recompilation) from frame to frame.
+    """
+    values = np.asarray(values, dtype=np.float32).ravel()
+    buffer = np.empty(values.size + 16, dtype=np.float32)
+    start = (-buffer.ctypes.data % 64) // buffer.itemsize
+    aligned = buffer[start:start + values.size]
+    aligned[:] = values
+    return mi.Float(aligned)
+
+
+def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tuple:
+    """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` on a Sionna ``scene``.
+
+    Mitsuba's preliminary intersection of the scene's ``mi_scene`` (world frame, the caller's
+    float64 arrays cast to float32). Returns numpy arrays ``(valid [K] bool, t [K], shape_id [K],
+    triangle [K], barycentric [K, 2])``; with ``shading_normals`` also Mitsuba's shading normal of
+    each hit ``[K, 3]`` (the interpolated vertex normal where the mesh has them, else the facet
+    normal; unit, zero where there is no hit).
+    """
+    directions = np.asarray(directions, float)
+    k = directions.shape[0]
+    origins = np.broadcast_to(np.asarray(origins, float), (k, 3))
+    ray = mi.Ray3f(mi.Point3f(*[aligned_float(origins[:, i]) for i in range(3)]),
+                   mi.Vector3f(*[aligned_float(directions[:, i]) for i in range(3)]))
+    pi = scene.mi_scene.ray_intersect_preliminary(ray, coherent=True)
+    valid = pi.is_valid()
+    shape_id = dr.reinterpret_array(mi.UInt32, pi.shape)
+    outputs = [pi.t, pi.prim_index, pi.prim_uv, shape_id, valid]
+    if shading_normals:
+        n = pi.compute_surface_interaction(ray).sh_frame.n
+        outputs.append(n)
+    dr.eval(*outputs)
+    uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
+                   np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
+    result = (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
+              np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64), uv)
+    if shading_normals:
+        normal = np.stack([np.asarray(c.numpy(), dtype=np.float64) for c in (n.x, n.y, n.z)], axis=-1)
+        norm = np.linalg.norm(normal, axis=-1, keepdims=True)
+        normal = np.divide(normal, norm, out=np.zeros_like(normal), where=norm > 0)
+        result = result + (normal,)
+    return result
 
 
 @contextmanager

@@ -61,8 +61,8 @@ rate :math:`v_r = \dot R`, positive when receding (:mod:`sionnafmcw.synthesis`,
 *Phase centre.* Ranges and radial velocities are measured from the phase centre of the virtual
 array, :math:`\mathbf c_w` = :func:`sionnafmcw.geometry.world_phase_centre` (radar frame:
 :func:`sionnafmcw.array.phase_centre`), not from the radar origin: that is where a range peak
-sits. ``truth_radial_velocity`` is :math:`(\mathbf p - \mathbf c_w)\cdot\mathbf v / |\mathbf p -
-\mathbf c_w|` at :math:`t_n`; :meth:`Run.truth_at_cpi_centre` moves it to the CPI centre.
+sits. ``truth_radial_velocity`` is :math:`(\mathbf p - \mathbf c_w)\cdot\mathbf v / \lVert\mathbf p - \mathbf c_w\rVert`
+at :math:`t_n`; :meth:`Run.truth_at_cpi_centre` moves it to the CPI centre.
 
 Resumable and never half-written: ``iq`` has one chunk per frame, and ``frame_done[f]`` is set
 only after every array of frame ``f`` is written. Re-opening a store with the same settings

@@ -35,10 +35,7 @@ if "tensorflow" in sys.modules and "drjit" not in sys.modules:
                   "in this process may now crash it. Import sionnafmcw.tf (or drjit) before tensorflow.",
                   RuntimeWarning, stacklevel=2)
 else:
-    try:
-        import drjit  # noqa: F401  (must be loaded before TensorFlow, see the module docstring)
-    except ImportError:  # pragma: no cover - drjit is a dependency of the package
-        pass
+    from . import sionna_rt  # noqa: F401 pyflakes: ignore  (Dr.Jit must be loaded before TensorFlow, see the module docstring)
 
 try:
     import tensorflow as tf

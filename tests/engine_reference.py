@@ -9,9 +9,10 @@ issue 11's PO direct echo, ray-tube PO multi-bounce and random-phase diffuse pat
 recomputes the same cases with today's code and asserts that every array is identical, bit for
 bit. Regenerate it only for a change that is meant to alter the echoes, and say so in the commit.
 
-The path engine's arrays (its PO echo of a room has ~1e5 contributions per element pair) are
-stored as their SHA-256 digest with their shape and dtype (:func:`digest`), which is just as
-bit-for-bit and keeps the file small; the pixel engine's are stored as they are.
+Both engines' arrays (a PO echo of a room has ~1e5 contributions per element pair) are stored as
+their SHA-256 digest with their shape and dtype (:func:`digest`), which is just as bit-for-bit
+and keeps the file small. The pixel engine's were regenerated (``--only pixel``) for its PO
+default and random-phase diffuse pixels (issue 11).
 
 Cases (small, deterministic):
 * ``walk``: two frames of the circle walk (a deforming body with per-vertex velocities, skin,
@@ -30,7 +31,7 @@ import numpy as np
 REFERENCE = Path(__file__).parent / "data" / "engine_reference.npz"
 #: Engines whose arrays are stored as a digest (key + "#sha256", uint8 [32]) and their shape and
 #: dtype (key + "#shape", key + "#dtype").
-DIGEST_ENGINES = ("path",)
+DIGEST_ENGINES = ("path", "pixel")
 
 
 def digest(array) -> np.ndarray:

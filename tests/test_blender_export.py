@@ -46,7 +46,7 @@ import pytest
 
 from sionnafmcw import PathEngine, RadarConfig, load_animation, processing, simulate
 from sionnafmcw.blender import BLENDER_VENV, BlenderExportError, export_blend, script_path
-from sionnafmcw.geometry import phase_centre, radial_velocity, rotation_matrix
+from sionnafmcw.geometry import radial_velocity, world_phase_centre, rotation_matrix
 
 FPS = 24.0
 FRAMES = (1, 9)
@@ -513,7 +513,7 @@ def test_simulated_box_range_and_velocity_match_keyframes(anim, tmp_path):
                   frames=frames, progress=False)
     track = processing.doppler_time(ds.iq.values[frames], radar)  # clutter removed: the box's cell
     pose = anim.radar_pose
-    centre = phase_centre(radar, pose.position, pose.orientation)
+    centre = world_phase_centre(radar, pose.position, pose.orientation)
     _, _, u = radar_truth()
     v_box = PARAMS["box_speed"] * u
     i_box = list(ds.object.values).index("box")

@@ -21,9 +21,7 @@ import re
 import shutil
 from pathlib import Path
 
-import numpy as np
 import pytest
-import zarr
 
 from animation_helpers import write_plate_animation
 from faults import assert_same_store, fault_log, leftovers, sionnafmcw, stderr_lines

@@ -1,5 +1,5 @@
 """The documentation site builds from the docstrings with warnings as errors, its notebooks are
-executed with their outputs on the pages, and the formulas render in a real browser (headless
+rendered with their outputs (executed by a real kernel this session), and the formulas render in a real browser (headless
 Chromium running the site's own MathJax): no raw LaTeX is left on a page."""
 
 import os
@@ -16,9 +16,11 @@ CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser") or shuti
 
 
 @pytest.fixture(scope="module")
-def site(tmp_path_factory):
+def site(tmp_path_factory, executed_notebooks):
+    """The site built with warnings as errors, its notebook pages from the notebooks this session
+    executed (each runs once: ``tests/notebook_runs.py``; ``make docs`` executes them itself)."""
     out = tmp_path_factory.mktemp("docs") / "html"
-    env = dict(os.environ, SIONNAFMCW_NOTEBOOK_QUICK="1")
+    env = dict(os.environ, SIONNAFMCW_NOTEBOOK_QUICK="1", SIONNAFMCW_DOCS_NOTEBOOKS=str(executed_notebooks.folder()))
     proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
                            str(ROOT / "docs"), str(out)], capture_output=True, text=True, env=env, cwd=ROOT)
     assert proc.returncode == 0, f"sphinx failed:\n{proc.stdout[-3000:]}\n{proc.stderr[-6000:]}"

@@ -8,7 +8,6 @@ range migration of at most half a bin costs < 0.2 dB).
 """
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 

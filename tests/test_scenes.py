@@ -442,7 +442,7 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
       truth (the swinging foot towards the radar, the feet and legs moving away) to within one bin.
     """
     from sionnafmcw import PathEngine, RadarConfig, processing, simulate
-    from sionnafmcw.geometry import phase_centre
+    from sionnafmcw.geometry import world_phase_centre
 
     radar = RadarConfig.preset("walk-77ghz")
     person = straight_person(start_range=5.0, speed=1.4)
@@ -458,7 +458,7 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
     names = list(ds.object.values)
     truth_vr = ds.truth_radial_velocity.values
     pose = ds.attrs["radar_pose"]
-    centre = phase_centre(radar, pose["position"], pose["orientation"])
+    centre = world_phase_centre(radar, pose["position"], pose["orientation"])
     surface = []
     for t in times:
         state = person.segment_state(t)

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 import xarray as xr
 
-from animation_helpers import box_mesh, plate_mesh, write_plate_animation
+from animation_helpers import plate_mesh, write_plate_animation
 from sionnafmcw import PathEngine, RadarConfig, open_run, processing, simulate
-from sionnafmcw.animation import scene_xml, write_animation, write_ply
+from sionnafmcw.animation import frame_xml_text, write_animation, write_ply
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.store import RunStoreError
 
@@ -42,7 +42,7 @@ def write_scene(root, objects, num_frames=2, fps=24.0):
             write_ply(root / "meshes" / f"{name}_{i:04d}.ply", v, f)
             shapes.append({"name": name, "ply": f"../meshes/{name}_{i:04d}.ply", "material": "mat-itu_metal"})
         (root / "frames").mkdir(parents=True, exist_ok=True)
-        (root / "frames" / f"{i:04d}.xml").write_text(scene_xml(shapes, METAL))
+        (root / "frames" / f"{i:04d}.xml").write_text(frame_xml_text(shapes, METAL))
         frames.append({"xml": f"frames/{i:04d}.xml", "objects": {name: vel for name, _, vel in objects}})
     write_animation(root, frames, fps, ((0, 0, 0), (0, 0, 0)))
     return root
@@ -150,7 +150,7 @@ def test_corner_reflector_brighter_than_plate(tmp_path, radar):
 def test_store_layout_resume_and_determinism(tmp_path, radar):
     root = write_plate_animation(tmp_path / "plate", distance=3.0, velocity=(1.0, 0, 0), num_frames=4, fps=24.0,
                                  size=(0.4, 0.4))
-    engine = fast_engine(deterministic=True)  # identical paths run to run (default order may vary)
+    engine = fast_engine()  # deterministic by default: identical paths run to run
     out = tmp_path / "run.zarr"
     simulate(root, radar, engine=engine, out=out, frames=[0, 1], progress=False, seed=3)
     traced = len(engine.stats)
@@ -169,16 +169,16 @@ def test_store_layout_resume_and_determinism(tmp_path, radar):
     assert RadarConfig.from_dict(ds.attrs["radar"]) == radar
 
     # same seed, same cube, in a fresh store and a fresh engine
-    again = simulate(root, radar, engine=fast_engine(deterministic=True), out=tmp_path / "again.zarr",
+    again = simulate(root, radar, engine=fast_engine(), out=tmp_path / "again.zarr",
                      progress=False, seed=3)
     assert np.array_equal(again.iq.values, ds.iq.values)
     assert xr.open_zarr(out).iq.dtype == np.complex64
 
     # resuming with other settings names the difference
     with pytest.raises(RunStoreError, match="seed"):
-        simulate(root, radar, engine=fast_engine(deterministic=True), out=out, progress=False, seed=4)
+        simulate(root, radar, engine=fast_engine(), out=out, progress=False, seed=4)
     with pytest.raises(RunStoreError, match="engine"):
-        simulate(root, radar, engine=fast_engine(), out=out, progress=False, seed=3)
+        simulate(root, radar, engine=fast_engine(deterministic=False), out=out, progress=False, seed=3)
     with pytest.raises(RunStoreError, match="no such"):
         open_run(tmp_path / "missing.zarr")
 

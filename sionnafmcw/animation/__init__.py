@@ -45,11 +45,8 @@ from .manifest import FORMAT, TIME_TOLERANCE, load_animation, write_animation
 from .model import Animation, Frame, Mesh, RadarPose
 from .ply import PlyData, ply_bytes, read_ply, write_ply
 
-#: The older name of :func:`frame_xml_text` (the XML text of one frame's Mitsuba scene).
-scene_xml = frame_xml_text
-
 __all__ = [
     "FORMAT", "TIME_TOLERANCE", "Animation", "AnimationError", "Frame", "Mesh", "ParsedFrameXml", "PlyData",
     "RadarPose", "ShapeInfo", "frame_xml_text", "load_animation", "parse_frame_xml", "ply_bytes", "read_ply",
-    "scene_xml", "write_animation", "write_frame_xml", "write_ply",
+    "write_animation", "write_frame_xml", "write_ply",
 ]

@@ -119,10 +119,6 @@ class Animation:
             self._frame_xml_cache[xml] = parse_frame_xml(xml)
         return self._frame_xml_cache[xml]
 
-    def scene(self, frame_index: int) -> ParsedFrameXml:
-        """Same as :meth:`frame_xml` (the older name)."""
-        return self.frame_xml(frame_index)
-
     def mesh(self, frame_index: int, name: str) -> Mesh:
         """World-space mesh of object ``name`` in a frame (XML transform applied)."""
         shapes = self.frame_xml(frame_index).shapes

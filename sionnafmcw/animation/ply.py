@@ -191,7 +191,7 @@ def read_ply(path) -> PlyData:
             # lists: fast path for the common "uchar count + int indices, all triangles" face layout
             if (len(el.properties) == 1 and el.count > 0):
                 name, (_, ctp, itp) = el.properties[0]
-                csize, isize = np.dtype(ctp).itemsize, np.dtype(itp).itemsize
+                csize = np.dtype(ctp).itemsize
                 if pos + csize <= len(data):
                     k = int(np.frombuffer(data, dtype=order + ctp, count=1, offset=pos)[0])
                     rec = np.dtype([("n", order + ctp), ("i", order + itp, (k,))])

@@ -9,7 +9,7 @@ A spec is a YAML or JSON file, or a dict::
     radar: walk-77ghz                 # a preset, {"preset": name, field: value, ...} (a preset with
                                       # RadarConfig fields replaced), a full RadarConfig dict, or a
                                       # list of these (each item draws one, uniformly)
-    engine: path                      # an engine of sionnafmcw.simulation.ENGINES
+    engine: path                      # an engine of sionnafmcw.engines.names()
     engine_options: {samples_per_src: 20000}
     parameters:                       # scenario parameters; the others keep the builder's defaults
       speed: {uniform: [-3.0, 3.0]}   #   continuous, uniform on [lo, hi)
@@ -337,7 +337,7 @@ def load_spec(spec) -> DatasetSpec:
     unknown radar preset or RadarConfig field, an unknown engine or engine option, ``count < 1``.
     """
     from .. import scenes
-    from ..simulation import ENGINES
+    from ..engines import names as engine_names
 
     data, source = _read(spec)
     where = f"data-set spec {source}"
@@ -373,8 +373,8 @@ def load_spec(spec) -> DatasetSpec:
         canon.append(entry_canon)
 
     engine = data.get("engine", "path")
-    if engine not in ENGINES:
-        raise SpecError(f"{where}: engine {engine!r} is not available; choose one of {', '.join(ENGINES)}")
+    if engine not in engine_names():
+        raise SpecError(f"{where}: engine {engine!r} is not available; choose one of {', '.join(engine_names())}")
     options = data.get("engine_options") or {}
     if not isinstance(options, dict):
         raise SpecError(f"{where}: engine_options must be a mapping of option: value, got {type(options).__name__}")

@@ -87,7 +87,7 @@ class LoadedScene:
         """
         params = scene.mi_scene_params
         state = cls(scene, params)
-        first_frame = animation.scene(0)
+        first_frame = animation.frame_xml(0)
         for name, obj in scene.objects.items():
             state.shape_ids[name] = obj.mi_mesh.id()
         # reference geometry: what Sionna loaded for frame 0, compared with our own PLY reading
@@ -116,7 +116,7 @@ class LoadedScene:
         # update are compiled while loading, not in frame 1
         dynamic = set()
         for i in range(1, animation.num_frames):
-            for name, info in animation.scene(i).shapes.items():
+            for name, info in animation.frame_xml(i).shapes.items():
                 first = first_frame.shapes.get(name)
                 if first is not None and info.type == "ply" and (
                         info.filename != first.filename or not np.array_equal(info.to_world, first.to_world)):
@@ -141,7 +141,7 @@ class LoadedScene:
         geometry change needs (a Sionna callback, an evaluation) is the caller's, when this
         returns True.
         """
-        fs = animation.scene(frame)
+        fs = animation.frame_xml(frame)
         missing = sorted(set(self.shape_ids) - set(fs.shapes))
         extra = sorted(set(fs.shapes) - set(self.shape_ids))
         if missing or extra:

@@ -391,8 +391,9 @@ class PathEngine(Engine):
     track_kernels : bool
         Record Dr.Jit kernel launches per frame in :attr:`last_stats` / :attr:`stats`.
     deterministic : bool
-        Sionna's deterministic candidate generator (same paths in the same order on every run, a
-        little more memory). With the default, a fixed seed gives the same rays, but the order
+        Sionna's deterministic candidate generator (default): the same seed gives the same paths
+        in the same order on every run, so the same cube (``benchmarks/determinism.py``: no
+        measurable cost per frame). With ``False`` a fixed seed gives the same rays, but the order
         of the paths, and rarely a path near a triangle edge, can differ between runs.
     array_model : str
         ``"coherent"`` (one trace from the Tx centre to the Rx centre, every element pair from the
@@ -413,6 +414,8 @@ class PathEngine(Engine):
     po_merge : bool
         Merge the PO contributions per delay/Doppler cell of 1/16 of the resolutions.
 
+    Notes
+    -----
     :attr:`last_paths` holds the :class:`TracedPaths` of the last frame (after de-duplication),
     with their interaction points. :attr:`stats` figures: ``num_paths`` (valid contributions of
     the frame over all element pairs, after de-duplication: :math:`MN` times the traced paths with
@@ -433,7 +436,7 @@ class PathEngine(Engine):
     def __init__(self, max_depth: int = 2, samples_per_src: int = 100_000, max_num_paths_per_src: int = 1_000_000,
                  diffuse: bool = True, specular: bool = True, refraction: bool = False, diffraction: bool = False,
                  seed: int = 1, vertex_doppler: bool = True, label: str = "first", track_kernels: bool = True,
-                 deterministic: bool = False, array_model: str = "coherent", deduplicate: bool = True,
+                 deterministic: bool = True, array_model: str = "coherent", deduplicate: bool = True,
                  physical_optics: bool = True, multibounce: str = "po", random_phase: bool = True,
                  po_samples_across: int = 16, po_merge: bool = True):
         if label not in self.LABELS:

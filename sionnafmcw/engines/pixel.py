@@ -257,7 +257,7 @@ from ..electromagnetics import (
 from ..physical_optics import SurfaceSamples, angular_grid_steps, po_echoes, render_resolution, render_samples
 from ..geometry import rotation_matrix
 from ..array import phase_centre
-from ..sionna_rt import LambertianPattern, dr, mi
+from ..sionna_rt import LambertianPattern, cast_rays, dr, mi
 from .base import Engine, EngineError
 from .loaded_scene import interpolate
 
@@ -333,22 +333,6 @@ class PixelGrid:
     def field_of_view_solid_angle(self) -> float:
         """:math:`2\\Phi\\sin(\\Theta/2)` (sr), the sum of :meth:`solid_angles`."""
         return 2.0 * float(self.fov_az) * np.sin(float(self.fov_el) / 2)
-
-
-# ---------------------------------------------------------------------------------------- Dr.Jit inputs
-def _jit_float(values) -> "mi.Float":
-    """``values`` as a Dr.Jit Float from a 64-byte aligned buffer.
-
-    Dr.Jit reads numpy memory as it is and compiles the alignment of each input into the
-    kernel (``align 1`` vs ``align 64``): inputs with varying alignment would give the same
-    ray cast a new kernel hash (a recompilation) from frame to frame.
-    """
-    values = np.asarray(values, dtype=np.float32).ravel()
-    buffer = np.empty(values.size + 16, dtype=np.float32)
-    start = (-buffer.ctypes.data % 64) // buffer.itemsize
-    aligned = buffer[start:start + values.size]
-    aligned[:] = values
-    return mi.Float(aligned)
 
 
 # ---------------------------------------------------------------------------------------- results
@@ -776,29 +760,7 @@ class PixelEngine(Engine):
         interaction: the interpolated vertex normal where the mesh has them, else the facet
         normal), appended as a sixth result ``[K, 3]`` (world, float64, unit).
         """
-        k = directions.shape[0]
-        o = mi.Point3f(*[_jit_float(np.full(k, origin[i])) for i in range(3)])
-        ray = mi.Ray3f(o, mi.Vector3f(*[_jit_float(directions[:, i]) for i in range(3)]))
-        pi = scene.mi_scene.ray_intersect_preliminary(ray, coherent=True)
-        valid = pi.is_valid()
-        shape_id = dr.reinterpret_array(mi.UInt32, pi.shape)
-        outputs = [pi.t, pi.prim_index, pi.prim_uv, shape_id, valid]
-        if shading_normals:
-            si = pi.compute_surface_interaction(ray)
-            n = si.sh_frame.n
-            outputs.append(n)
-        dr.eval(*outputs)
-        uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
-                       np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
-        result = (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
-                  np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64),
-                  uv)
-        if shading_normals:
-            normal = np.stack([np.asarray(c.numpy(), dtype=np.float64) for c in (n.x, n.y, n.z)], axis=-1)
-            norm = np.linalg.norm(normal, axis=-1, keepdims=True)
-            normal = np.divide(normal, norm, out=np.zeros_like(normal), where=norm > 0)
-            result = result + (normal,)
-        return result
+        return cast_rays(scene, origin, directions, shading_normals=shading_normals)
 
     # ------------------------------------------------------------------ public
     def render(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> PixelRender:
@@ -850,7 +812,7 @@ class PixelEngine(Engine):
         """:class:`SurfaceFigures` of object ``name`` (frame-0 geometry of the loaded scene, computed once)."""
         state = self._state
         if name not in state.surfaces:
-            info = animation.scene(0).shapes.get(name)
+            info = animation.frame_xml(0).shapes.get(name)
             if info is not None and info.type == "ply":
                 # frame 0's PLY whatever frame the engine starts with (workers of a data set start
                 # anywhere): the same cells, so the same phases, for every frame of the animation
@@ -988,7 +950,7 @@ class PixelEngine(Engine):
 
     # ------------------------------------------------------------------ hits -> Echoes
     def _to_echoes(self, frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv):
-        state, loaded = self._state, self._loaded
+        state = self._state
         m_tx, n_rx = radar.num_tx, radar.num_rx
         wavelength = SPEED_OF_LIGHT / radar.fc
         ids = np.array(sorted(state.index_by_id), dtype=np.int64)

@@ -193,34 +193,13 @@ def curvature_radius(vertices, faces, corner_normals, quantile: float = 0.02) ->
 
 
 # ---------------------------------------------------------------------------------------- ray cast
-def _aligned_float(mi, values):
-    """A Dr.Jit Float from a 64-byte aligned float32 copy (see engines/pixel.py ``_jit_float``)."""
-    values = np.asarray(values, dtype=np.float32).ravel()
-    buffer = np.empty(values.size + 16, dtype=np.float32)
-    start = (-buffer.ctypes.data % 64) // buffer.itemsize
-    aligned = buffer[start:start + values.size]
-    aligned[:] = values
-    return mi.Float(aligned)
-
-
 def cast(scene, origins, directions):
     """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` (world) on the Sionna
-    ``scene``: ``(valid, t, shape_id, triangle, barycentric [K, 2])`` as numpy."""
-    from ..sionna_rt import dr, mi
+    ``scene``: ``(valid, t, shape_id, triangle, barycentric [K, 2])`` as numpy
+    (:func:`sionnafmcw.sionna_rt.cast_rays`)."""
+    from ..sionna_rt import cast_rays
 
-    directions = np.asarray(directions, float)
-    k = directions.shape[0]
-    origins = np.broadcast_to(np.asarray(origins, float), (k, 3))
-    o = mi.Point3f(*[_aligned_float(mi, origins[:, i]) for i in range(3)])
-    ray = mi.Ray3f(o, mi.Vector3f(*[_aligned_float(mi, directions[:, i]) for i in range(3)]))
-    pi = scene.mi_scene.ray_intersect_preliminary(ray, coherent=True)
-    valid = pi.is_valid()
-    shape_id = dr.reinterpret_array(mi.UInt32, pi.shape)
-    dr.eval(pi.t, pi.prim_index, pi.prim_uv, shape_id, valid)
-    uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
-                   np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
-    return (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
-            np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64), uv)
+    return cast_rays(scene, origins, directions)
 
 
 # ---------------------------------------------------------------------------------------- scene description

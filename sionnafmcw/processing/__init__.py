@@ -26,18 +26,13 @@ from .rdmap import RangeDopplerMap, range_doppler, range_doppler_map
 from .slow_time import doppler_fft, velocity_axis
 from .windows import window_weights
 
-# transitional alias (issue 10): removed at integration (the array geometry is sionnafmcw.array)
-from ..array import has_elevation_aperture, uniform_azimuth_row, virtual_array  # noqa: E402
-# transitional alias (issue 10): removed at integration (sionnafmcw.array.phase_centre)
-from ..array import phase_centre as array_phase_centre  # noqa: E402
-
 __all__ = [
     "AngleSpectrum", "CFARResult", "DopplerTrack", "MicroDopplerSpectrogram", "PointCloud", "RangeAzimuthMap",
-    "RangeDopplerMap", "angle_fft", "array_phase_centre", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
-    "detections_to_point_cloud", "doppler_fft", "doppler_time", "estimate_direction", "has_elevation_aperture",
+    "RangeDopplerMap", "angle_fft", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
+    "detections_to_point_cloud", "doppler_fft", "doppler_time", "estimate_direction",
     "interpolate_peak", "local_maxima", "micro_doppler_spectrogram", "os_cfar_2d", "os_cfar_factor",
     "parabolic_offset", "range_axis", "range_azimuth_map", "range_doppler", "range_doppler_coupling",
     "range_doppler_map", "range_fft", "remove_static_clutter", "steering_vectors", "tdm_phase_compensation",
-    "uniform_azimuth_row", "uniform_axis_value", "velocity_axis", "virtual_array", "virtual_channels",
+    "uniform_axis_value", "velocity_axis", "virtual_channels",
     "window_weights",
 ]

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import array as _array
 
 
 def virtual_channels(x, tx_axis: int = 1) -> np.ndarray:
@@ -66,12 +65,3 @@ def tdm_phase_compensation(rd, radar, velocities, doppler_axis: int | None = 0, 
     rot = np.exp(1j * phase).astype(np.result_type(x.dtype, np.complex64))
     return x * rot
 
-
-# transitional alias (issue 10): removed at integration
-virtual_array = _array.virtual_array
-# transitional alias (issue 10): removed at integration
-array_phase_centre = _array.phase_centre
-# transitional alias (issue 10): removed at integration
-has_elevation_aperture = _array.has_elevation_aperture
-# transitional alias (issue 10): removed at integration
-uniform_azimuth_row = _array.uniform_azimuth_row

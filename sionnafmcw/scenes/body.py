@@ -46,7 +46,7 @@ radar 1 m high; ``benchmarks/body_rcs.py convergence``): change against 4 mm edg
 dB, at 3 m / 10 m and aspects 0, 30, 90, 150, 180 deg:
 
 ==========  =========  ============================================  ==========
-edge (mm)   triangles  change at 3 m (0/30/90/150/180 deg)           max |dB|
+edge (mm)   triangles  change at 3 m (0/30/90/150/180 deg)           max abs dB
 ==========  =========  ============================================  ==========
 32          12 008     +0.6 / +2.5 / -3.3 / -9.0 / +1.7              9.0
 16          47 742     -1.0 / -2.9 / +3.2 / -0.8 / +1.9              3.4

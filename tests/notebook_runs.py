@@ -1,0 +1,73 @@
+"""Execute the tutorial notebooks once per test session (a real ipykernel through nbclient).
+
+``tests/test_notebooks.py`` checks the executed notebooks, and ``tests/test_docs.py`` builds the
+documentation site from the same executed notebooks (``SIONNAFMCW_DOCS_NOTEBOOKS``), so that each
+notebook runs once per session instead of twice. Every notebook reads its parameters from the
+environment in its first code cell: ``SIONNAFMCW_NOTEBOOK_QUICK=1`` (small settings) and
+``SIONNAFMCW_NOTEBOOK_OUT`` (where it writes scenes, stores and figures).
+"""
+
+from __future__ import annotations
+
+import os
+from contextlib import contextmanager
+from pathlib import Path
+
+import nbformat
+from nbclient import NotebookClient
+
+NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "notebooks"
+EXPECTED = [
+    "01_quick_start.ipynb",
+    "02_walking_person.ipynb",
+    "03_blender_scene.ipynb",
+    "04_dataset_dask_tensorflow.ipynb",
+]
+
+
+@contextmanager
+def _environment(**values):
+    old = {k: os.environ.get(k) for k in values}
+    os.environ.update(values)
+    try:
+        yield
+    finally:
+        for k, v in old.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def execute(name: str, out: Path) -> nbformat.NotebookNode:
+    """Notebook ``name`` executed top to bottom at its quick settings, writing under ``out``;
+    an error in a cell is kept as an ``error`` output (the tests assert there is none)."""
+    nb = nbformat.read(NOTEBOOK_DIR / name, as_version=4)
+    with _environment(SIONNAFMCW_NOTEBOOK_QUICK="1", SIONNAFMCW_NOTEBOOK_OUT=str(out), MPLBACKEND="Agg"):
+        client = NotebookClient(nb, timeout=900, kernel_name="python3", allow_errors=True,
+                                resources={"metadata": {"path": str(NOTEBOOK_DIR)}})
+        client.execute()
+    return nb
+
+
+class ExecutedNotebooks:
+    """Lazily executed notebooks of one session: ``runs[name]`` -> ``(notebook, out_dir)``;
+    :meth:`folder` writes all of them, executed, into one folder (for the docs build)."""
+
+    def __init__(self, root: Path):
+        self.root = Path(root)
+        self._done: dict = {}
+
+    def __getitem__(self, name: str):
+        if name not in self._done:
+            out = self.root / "out" / Path(name).stem
+            out.mkdir(parents=True, exist_ok=True)
+            self._done[name] = (execute(name, out), out)
+        return self._done[name]
+
+    def folder(self) -> Path:
+        folder = self.root / "executed"
+        folder.mkdir(exist_ok=True)
+        for name in EXPECTED:
+            nbformat.write(self[name][0], folder / name)
+        return folder
