@@ -47,9 +47,10 @@ import numpy as np
 from sionnafmcw import plots, processing
 from sionnafmcw.animation import load_animation
 from sionnafmcw.engines import PathEngine
+from sionnafmcw.engines import options as engine_options
 from sionnafmcw.radar import RadarConfig
 from sionnafmcw.synthesis import synthesize
-from sionnafmcw.validation.circle_walk import PATH_DEFAULTS, TRUTH_OBJECT, analyse
+from sionnafmcw.validation.circle_walk import TRUTH_OBJECT, analyse
 from sionnafmcw.validation.common import build_scene, run_engine
 
 LIMBS = ("upper_arm", "lower_arm", "upper_leg", "lower_leg", "foot")
@@ -82,8 +83,8 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=100)
     parser.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3], help="solver seeds")
-    parser.add_argument("--samples-per-src", type=int, default=PATH_DEFAULTS["samples_per_src"])
-    parser.add_argument("--max-depth", type=int, default=PATH_DEFAULTS["max_depth"])
+    parser.add_argument("--samples-per-src", type=int, default=engine_options("path")["samples_per_src"])
+    parser.add_argument("--max-depth", type=int, default=engine_options("path")["max_depth"])
     parser.add_argument("--noise-seed", type=int, default=0)
     parser.add_argument("--scene", default=None, help="existing circle_walk animation (default: build one in --out)")
     parser.add_argument("--out", default="out/circle_walk_physics")

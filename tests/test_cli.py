@@ -88,6 +88,17 @@ def test_console_script(tmp_path):
     assert bad.stdout == "" and not (tmp_path / "x.zarr").exists()
 
 
+def test_output_piped_into_a_reader_that_stops(tmp_path):
+    """``sionnafmcw scene list | head -0``: the reader closes the pipe before the output; the command ends
+    quietly (no BrokenPipeError traceback) with status 141 (128 + SIGPIPE)."""
+    proc = subprocess.Popen([sys.executable, "-m", "sionnafmcw.cli", "scene", "list"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE)
+    proc.stdout.close()  # the reader is gone before the command writes (its imports take ~1 s)
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=120) == 141
+    assert "Traceback" not in err and "BrokenPipe" not in err, err
+
+
 # ============================================================================ presets
 def _table_row(out, name):
     rows = [line.split() for line in out.splitlines() if line.startswith(name + " ")]

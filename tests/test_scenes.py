@@ -432,11 +432,20 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
     :math:`t_n`, constant over the CPI, so every column is compared with the truth at :math:`t_n`.
     Doppler bin :math:`\Delta v = \lambda_{mid}/(2 L T_b)` = 0.0715 m/s.
 
-    * Torso line: the strongest bin of each CPI lies within the radial velocities of the torso's
-      surface at :math:`t_n` widened by :math:`\Delta v/2` (bin quantisation), and within 2 bins of the
-      torso centroid's radial velocity (the run store's truth).
-    * Limb envelope at -20 dB below each column's peak (above the Hann window's -31.5 dB
-      sidelobes, so sidelobes of the strongest lines do not count): it never leaves the span of
+    * Strongest bin: in every CPI it lies within the radial velocities of the body's surface at
+      :math:`t_n` widened by :math:`\Delta v/2` (bin quantisation). With the physical-optics direct
+      echo it is not always the torso: a leg seen broadside is a singly curved surface whose
+      specular return (:math:`\propto L^2 a/\lambda` for a cylinder) can exceed the doubly curved
+      torso's (:math:`\pi\rho_1\rho_2`), as a stance leg near zero velocity does in some CPIs.
+    * Torso line: in every CPI the spectrum within the torso surface's velocities (widened by
+      :math:`\Delta v/2`) reaches -20 dB of the column's peak (above the Hann window's -31.5 dB
+      sidelobes), and where the peak is on the torso it is within 2 bins of the torso centroid's
+      radial velocity (the run store's truth).
+    * Limb envelope at -25 dB below each column's peak: above the sidelobe floor of the Hann
+      window (highest sidelobe -31.5 dB; the sidelobes of two equally strong lines adding in phase,
+      +6 dB, reach -25.5 dB), so sidelobes of the strongest lines do not count. (The physical-optics
+      echo of the swinging foot, a small doubly curved surface, lies 20-44 dB below the column's
+      peak, so the -20 dB envelope of the diffuse-only model no longer reaches it.) It never leaves the span of
       the body's vertex radial velocities at :math:`t_n` by more than the Hann main-lobe half-width
       (2 bins); over the cycle it reaches the extreme segment-centroid radial velocities of the
       truth (the swinging foot towards the radar, the feet and legs moving away) to within one bin.
@@ -472,11 +481,15 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
     assert dv == pytest.approx(radar.centre_wavelength / (2 * radar.num_chirps * radar.block_interval))
     peak = sg.peak_velocities()
     torso = truth_vr[:, names.index("torso")]
-    assert np.all(peak >= surface[:, 2] - dv / 2) and np.all(peak <= surface[:, 3] + dv / 2)
-    assert np.max(np.abs(peak - torso)) <= 2 * dv
-
+    assert np.all(peak >= surface[:, 0] - dv / 2) and np.all(peak <= surface[:, 1] + dv / 2)
     p = sg.power
-    above = p >= p.max(axis=0) * 10 ** (-20 / 10)
+    in_torso = ((sg.velocities[:, None] >= surface[None, :, 2] - dv / 2)
+                & (sg.velocities[:, None] <= surface[None, :, 3] + dv / 2))
+    torso_power = np.where(in_torso, p, 0.0).max(axis=0)
+    assert np.all(torso_power >= p.max(axis=0) * 10 ** (-20 / 10))
+    on_torso = (peak >= surface[:, 2] - dv / 2) & (peak <= surface[:, 3] + dv / 2)
+    assert on_torso.any() and np.max(np.abs(peak - torso)[on_torso]) <= 2 * dv
+    above = p >= p.max(axis=0) * 10 ** (-25 / 10)
     upper = np.array([sg.velocities[np.nonzero(col)[0].max()] for col in above.T])
     lower = np.array([sg.velocities[np.nonzero(col)[0].min()] for col in above.T])
     assert np.all(lower >= surface[:, 0] - 2 * dv) and np.all(upper <= surface[:, 1] + 2 * dv)
@@ -484,7 +497,8 @@ def test_straight_walk_micro_doppler_through_the_path_engine(tmp_path):
     assert upper.max() >= truth_vr.max() - dv
     # the limbs spread the spectrum far beyond the torso line: the swinging foot reaches ~ -5 m/s
     assert truth_vr.min() < -3.5 * 1.4 and lower.min() < -3.5 * 1.4
-    print(f"\nstraight_walk spectrogram: {num_frames} frames, body paths/frame {body_paths.min()}-{body_paths.max()}, "
+    print(f"\nstraight_walk spectrogram: peak on the torso in {on_torso.sum()} of {num_frames} CPIs;"
+          f" {num_frames} frames, body paths/frame {body_paths.min()}-{body_paths.max()}, "
           f"bin {dv:.4f} m/s; torso |peak - truth| max {np.max(np.abs(peak - torso)) / dv:.2f} bins; "
           f"envelope {lower.min():.2f}..{upper.max():.2f} m/s vs centroid truth {truth_vr.min():.2f}.."
           f"{truth_vr.max():.2f} m/s, vertex truth {surface[:, 0].min():.2f}..{surface[:, 1].max():.2f} m/s")

@@ -90,6 +90,8 @@ def main(argv=None) -> int:
             return int(args.func(args) or 0)
         except KeyboardInterrupt as exc:
             return interrupted(exc)
+        except BrokenPipeError:
+            return _closed_stdout()
         except user_error_types() as err:
             print(f"{PROG}: error: {one_line(cli_message(err))}", file=sys.stderr)
             return EXIT_USER_ERROR
@@ -99,6 +101,16 @@ def main(argv=None) -> int:
             if is_interrupt(exc):
                 return interrupted(exc)
             raise
+
+
+def _closed_stdout() -> int:
+    """The reader of our stdout went away (``sionnafmcw presets | head -1``): no traceback, and no
+    second error when Python flushes stdout at exit; status 141 (128 + SIGPIPE) as a shell gives."""
+    import os
+
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    return 141
 
 
 def interrupted(exc: BaseException) -> int:
