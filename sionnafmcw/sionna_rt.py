@@ -305,8 +305,9 @@ def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tupl
         n = pi.compute_surface_interaction(ray).sh_frame.n
         outputs.append(n)
     dr.eval(*outputs)
-    uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
-                   np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
+    with np.errstate(invalid="ignore"):  # rays that miss carry undefined (NaN) barycentrics; ``valid`` masks them
+        uv = np.stack([np.asarray(pi.prim_uv.x.numpy(), dtype=np.float64),
+                       np.asarray(pi.prim_uv.y.numpy(), dtype=np.float64)], axis=-1)
     result = (np.asarray(valid.numpy(), dtype=bool), np.asarray(pi.t.numpy(), dtype=np.float64),
               np.asarray(shape_id.numpy(), dtype=np.int64), np.asarray(pi.prim_index.numpy(), dtype=np.int64), uv)
     if shading_normals:

@@ -19,7 +19,8 @@ The echo of a frame has three parts (issue 11; each can be switched off for comp
   (derivation in :mod:`~sionnafmcw.engines.po_render`); Sionna's purely specular chains are then
   dropped too. ``multibounce="sionna"`` keeps Sionna's specular chains of two or more
   interactions (image method, geometric optics). The PO contributions are merged per element
-  pair into cells of 1/16 of the range and velocity resolution (``po_merge``,
+  pair into cells of 1/256 of the range and velocity resolution (``po_merge``,
+  :data:`~sionnafmcw.engines.po_render.MERGE_FRACTION`,
   :func:`~sionnafmcw.engines.po_render.merge_contributions`: the channel at the carrier is kept
   exactly);
 * **Sionna's paths with a diffuse interaction** (and, with ``multibounce="sionna"``, its specular
@@ -412,7 +413,8 @@ class PathEngine(Engine):
     po_samples_across : int
         Render samples across an object at least (:func:`~sionnafmcw.physical_optics.render_resolution`).
     po_merge : bool
-        Merge the PO contributions per delay/Doppler cell of 1/16 of the resolutions.
+        Merge the PO contributions per delay/Doppler cell of 1/256 of the resolutions
+        (:data:`~sionnafmcw.engines.po_render.MERGE_FRACTION`).
 
     Notes
     -----
@@ -588,8 +590,8 @@ class PathEngine(Engine):
                    wavelength: float):
         """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
         reflections up to ``max_depth`` bounces (:mod:`sionnafmcw.engines.po_render`), every element
-        pair near-field exact, merged per delay/Doppler cell of 1/16 of the resolutions."""
-        from .po_render import chain_po_gains, merge_contributions, reflect, render, scene_objects
+        pair near-field exact, merged per delay/Doppler cell of :data:`~.po_render.MERGE_FRACTION` of the resolutions."""
+        from .po_render import MERGE_FRACTION, chain_po_gains, merge_contributions, reflect, render, scene_objects
 
         t0 = time.perf_counter()
         loaded, state = self._loaded, self._state
@@ -628,8 +630,8 @@ class PathEngine(Engine):
             labels = b_sel.samples.labels
             if self.po_merge:
                 a, tau, doppler, labels = merge_contributions(
-                    a, tau, doppler, labels, delay_cell=1.0 / (16 * radar.bandwidth),
-                    doppler_cell=1.0 / (16 * radar.cpi_duration), frequency=radar.fc)
+                    a, tau, doppler, labels, delay_cell=MERGE_FRACTION / radar.bandwidth,
+                    doppler_cell=MERGE_FRACTION / radar.cpi_duration, frequency=radar.fc)
             echoes.append(Echoes(a, tau, doppler, np.broadcast_to(labels, a.shape).astype(str)))
         figures = {"po_rays": int(sum(b.num_rays for b in renders)), "po_samples": num_samples,
                    "po_contributions": int(sum(e.num_contributions for e in echoes)),

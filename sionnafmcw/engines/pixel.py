@@ -260,6 +260,7 @@ from ..array import phase_centre
 from ..sionna_rt import LambertianPattern, cast_rays, dr, mi
 from .base import Engine, EngineError
 from .loaded_scene import interpolate
+from .po_render import MERGE_FRACTION as _PO_MERGE_FRACTION
 
 
 class PixelEngineError(EngineError):
@@ -499,8 +500,9 @@ def copolar_reflection(cos_theta, eta, thickness, wavelength, k_in, normal, e_t)
     return r_te * te - r_tm * (1.0 - te)
 
 
-#: Cell size of :func:`merge_contributions` as a share of the radar's resolutions (PO mode).
-MERGE_FRACTION = 1 / 256
+#: Cell size of :func:`merge_contributions` as a share of the radar's resolutions (PO mode): the
+#: one value of both engines (:data:`sionnafmcw.engines.po_render.MERGE_FRACTION`).
+MERGE_FRACTION = _PO_MERGE_FRACTION
 
 
 def merge_contributions(echoes: Echoes, radar, directions, fraction: float = MERGE_FRACTION) -> Echoes:

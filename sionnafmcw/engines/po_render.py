@@ -549,6 +549,17 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
 
 
 # ---------------------------------------------------------------------------------------- merging
+#: Cell size of the PO merge, as a share of the radar's range and velocity resolutions, in both
+#: engines (:func:`merge_contributions`; :func:`sionnafmcw.engines.pixel.merge_contributions`).
+#: The merge error is bounded relative to :math:`\sum|a|` of a cell, not to its echo, so cells
+#: whose PO integral nearly cancels (off-specular surfaces) need small cells. Measured on a
+#: circle-walk frame at the path engine's defaults (merged cube against the unmerged one, 3.8e5
+#: PO samples per pair): cells of 1/16 / 1/64 / 1/256 give 7.2e4 / 1.2e5 / 1.8e5 contributions,
+#: a cube difference of -18.6 / -26.9 / -32.6 dB and a largest change of a range-Doppler cell
+#: within 40 dB of the peak (clutter removed) of 7.0 / 4.3 / 0.17 dB; hence 1/256.
+MERGE_FRACTION = 1 / 256
+
+
 def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell: float, frequency: float):
     r"""Sum contributions that the radar cannot tell apart into one per cell and element pair.
 
@@ -559,7 +570,8 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     :math:`\bar a = \sum_i a_i e^{-j2\pi f_c(\tau_i - \bar\tau)}` (``frequency`` :math:`f_c`): the
     channel at the carrier is unchanged, and what is lost is the beat and Doppler phase across a
     cell, at most :math:`\pi B\,\delta\tau` and :math:`\pi T_{CPI}\,\delta f` at the ends of a chirp
-    and of the CPI (:math:`\pi/16` for cells of 1/16 of the range and velocity resolution).
+    and of the CPI (:math:`\pi/256` for cells of :data:`MERGE_FRACTION` = 1/256 of the range and
+    velocity resolution).
     Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``.
     """
     a = np.asarray(a)
