@@ -38,6 +38,7 @@ def test_pixel_vs_path_on_the_rough_moving_plate(tmp_path, capsys):
     last = capsys.readouterr().out.strip().splitlines()[-1]
     metrics = json.loads(last)
     assert metrics == json.loads((tmp_path / "metrics.json").read_text())
+    assert "physical optics" in metrics["models"]["pixel"]  # like with like by default
     m = metrics["scenes"]["moving_plate"]
     assert m["range_profile_correlation"] >= 0.95
     assert m["doppler_time_within_one_bin"] == 1.0

@@ -88,6 +88,15 @@ class _Channel:
     amplitude: np.ndarray  # |a_p|
 
 
+#: Sources of zero strength at the corners of the band, (X, Y) in rad per sample / per chirp,
+#: added to every finufft type-3 plan. The plan sizes its grid from the spread of the sources; the
+#: error bound of :mod:`.accuracy` (the safety factor measured on sources spread over the band)
+#: does not hold for a narrow spread: two targets at 1e-9 m/s and one at 0 gave 1.5x the bound in
+#: single precision, and a spread of ~1e-37 (a velocity of 1e-37 m/s, met by a property-based
+#: test) made every sample NaN. With the anchors every plan spans the full band.
+ANCHORS = np.array([[-np.pi, -np.pi], [np.pi, np.pi]])
+
+
 class _Grid:
     """The warped targets (X, Y) and the residual bases of one radar."""
 
@@ -199,10 +208,13 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                     if power:
                         w = w * (2j * np.pi * c.residual[i]) ** power / factorial(power)
                 vectors[j * len(terms) + t, offsets[j]:offsets[j + 1]] = w
+        # two sources of zero strength at the corners of the band (ANCHORS): finufft's type 3 sizes its
+        # grid from the sources' spread, and its error bound holds over the full band only
+        vectors = np.concatenate([vectors, np.zeros((vectors.shape[0], len(ANCHORS)), dtype=dtype)], axis=1)
         plan = finufft.Plan(3, 2, n_trans=vectors.shape[0], eps=accuracy.nufft_tol, isign=1, dtype=dtype.name,
                             nthreads=1, upsampfac=upsampfac, showwarn=0)
-        plan.setpts(np.concatenate([c.x for c in group]).astype(real),
-                    np.concatenate([c.y for c in group]).astype(real), None, target_x, target_y)
+        plan.setpts(np.concatenate([c.x for c in group] + [ANCHORS[:, 0]]).astype(real),
+                    np.concatenate([c.y for c in group] + [ANCHORS[:, 1]]).astype(real), None, target_x, target_y)
         values = plan.execute(vectors if vectors.shape[0] > 1 else vectors[0])
         values = np.reshape(values, (len(group), len(terms), L, Ns))
         cubes = []

@@ -4,6 +4,13 @@ Both engines end in the same :class:`~sionnafmcw.Echoes`, synthesizer and proces
 difference comes from the scattering model. The path engine runs with ``max_depth=1`` (one
 bounce: the pixel engine has no multipath), both without receiver noise, on the same animation.
 
+Like with like: by default both engines model the same physics, the coherent share
+:math:`(1 - S^2)|\Gamma|^2` by near-field physical optics and the diffuse share :math:`S^2|\Gamma|^2`
+by random-phase Lambertian scatterers (``--pixel-model physical-optics``, the pixel engine's
+default); ``--pixel-model lambertian`` compares the paper's diffuse-only eq. (2) with it instead.
+The metrics name the models (``models``). What follows about the diffuse-only model describes
+the latter comparison.
+
 Scenes (issue 5): ``moving_plate``, ``corner_reflectors`` (moving radially) and ``circle_walk``.
 The pixel engine models the diffuse (Lambertian) share :math:`S^2` of the reflected power only;
 a smooth surface (:math:`S = 0`, Sionna's and every ITU material's default) is invisible to it,
@@ -318,6 +325,8 @@ def main(argv=None) -> int:
     parser.add_argument("--n-az", type=int, default=256, help="pixel engine azimuth pixels")
     parser.add_argument("--n-el", type=int, default=128, help="pixel engine elevation pixels")
     parser.add_argument("--array-model", choices=("plane-wave", "exact"), default="exact")
+    parser.add_argument("--pixel-model", choices=("physical-optics", "lambertian"), default="physical-optics",
+                        help="pixel engine model (default: PO + diffuse, the path engine's physics)")
     parser.add_argument("--no-path-specular", action="store_true",
                         help="path engine without specular reflection (the pixel engine's physics: diffuse only)")
     parser.add_argument("--path-buffer", type=int, default=None,
@@ -332,7 +341,10 @@ def main(argv=None) -> int:
     radar = RadarConfig.resolve(args.radar)  # inputs checked before the output folder is made
     out.mkdir(parents=True, exist_ok=True)
     metrics = {"experiment": "pixel_vs_path", "radar": radar.name, "targets": TARGETS, "scenes": {}, "figures": [],
-               "path_specular": not args.no_path_specular}
+               "path_specular": not args.no_path_specular,
+               "models": {"path": "physical optics (coherent share) + random-phase diffuse paths, one bounce",
+                          "pixel": {"physical-optics": "physical optics (coherent share) + random-phase diffuse pixels",
+                                    "lambertian": "the paper's eq. (2): random-phase diffuse pixels only"}[args.pixel_model]}}
     for scene in args.scenes:
         params, default_frames = SCENES[scene]
         n = default_frames if args.frames is None else int(args.frames)
@@ -347,7 +359,8 @@ def main(argv=None) -> int:
         path_options = {"max_depth": 1, "samples_per_src": args.samples_per_src,
                         "max_num_paths_per_src": buffer, "specular": not args.no_path_specular}
         for engine, options in (("path", path_options),
-                                ("pixel", {"n_az": args.n_az, "n_el": args.n_el, "array_model": args.array_model})):
+                                ("pixel", {"n_az": args.n_az, "n_el": args.n_el, "array_model": args.array_model,
+                                           "model": args.pixel_model})):
             recorder = _PowerRecorder(engines.create(engine, **options))
             runs[engine], sec = run_engine(animation, radar, recorder, out / "runs" / f"{scene}_{engine}.zarr",
                                            frames=frames, noise=False, progress=not args.quiet)
