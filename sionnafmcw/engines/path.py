@@ -369,6 +369,11 @@ def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
 
 
+def _mesh_arrays(mesh):
+    """``(vertices, faces)`` of an animation :class:`~sionnafmcw.animation.Mesh` (world frame)."""
+    return mesh.vertices, mesh.faces
+
+
 class PathEngine(Engine):
     """Sionna RT path solver turned into per-element radar echoes.
 
@@ -602,7 +607,7 @@ class PathEngine(Engine):
         rigid = {name: np.asarray(animation.frame(frame).objects.get(name, np.zeros(3)), float)
                  for name in loaded.scene.objects}
         objects = scene_objects(loaded, rigid, state.materials, vertex_doppler=self.vertex_doppler,
-                                cache=state.normals)
+                                cache=state.normals, reference=lambda name: _mesh_arrays(animation.mesh(0, name)))
         bounce = render(loaded, centre, rot, wavelength, rigid, state.materials, objects=objects,
                         samples_across=self.po_samples_across, vertex_doppler=self.vertex_doppler)
         renders = [bounce]

@@ -219,13 +219,44 @@ class SceneObject:
     curvature_radius: float
 
 
+#: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
+#: (PLY vertices are float32: about 1e-7 m of rounding at a few metres).
+RIGID_TOLERANCE = 1e-5
+
+
+def rigid_motion(old_vertices, old_faces, vertices, faces, tolerance: float = RIGID_TOLERANCE):
+    r"""The rotation :math:`\mathbf R` with ``vertices`` :math:`= \mathbf R\,\mathbf x + \mathbf t` for every
+    vertex :math:`\mathbf x` of ``old_vertices`` (same faces), or None when the mesh changed otherwise.
+
+    Kabsch's least-squares fit: with the centred vertex sets :math:`A` (old) and :math:`B` (new)
+    and the SVD :math:`A^TB = U\Sigma V^T`, :math:`\mathbf R = V\,\mathrm{diag}(1, 1, d)\,U^T`,
+    :math:`d = \mathrm{sign}\det(VU^T)`; accepted when no vertex is off by more than ``tolerance``.
+    Shading normals and curvature radii are invariant under the motion: the normals turn with
+    :math:`\mathbf R`, the radii stay (the rigid segments of the walking body, a new PLY each frame).
+    """
+    if old_vertices.shape != vertices.shape or old_faces.shape != faces.shape or not np.array_equal(old_faces, faces):
+        return None
+    c_old, c_new = old_vertices.mean(axis=0), vertices.mean(axis=0)
+    a, b = old_vertices - c_old, vertices - c_new
+    u, _, vt = np.linalg.svd(a.T @ b)
+    d = np.sign(np.linalg.det(vt.T @ u.T))
+    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
+    if np.max(np.abs(a @ rotation.T - b)) > tolerance:
+        return None
+    return rotation
+
+
 def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float = CREASE_ANGLE,
-                  vertex_doppler: bool = True, cache: dict | None = None) -> list[SceneObject]:
+                  vertex_doppler: bool = True, cache: dict | None = None, reference=None) -> list[SceneObject]:
     """:class:`SceneObject` of every object of a :class:`~sionnafmcw.engines.loaded_scene.LoadedScene`
     in its current frame. ``velocities``: name -> rigid velocity (m/s, used where the mesh has no
     per-vertex field or ``vertex_doppler`` is off); ``materials``: name -> :class:`Material`.
     ``cache`` (a dict the caller keeps) reuses normals and curvature of meshes whose PLY (file,
-    mtime, transform: ``loaded.loaded_files``) did not change."""
+    mtime, transform: ``loaded.loaded_files``) did not change. ``reference`` (name -> ``(vertices,
+    faces)`` of a fixed frame, e.g. frame 0, world frame): a mesh that is that reference moved
+    rigidly (:func:`rigid_motion`: the segments of the walking body, a new PLY every frame) gets
+    the reference's normals turned, computed once; the result depends on the frame only, not on
+    the frames simulated before it (a resumed run gives the same echoes)."""
     out = []
     for name, obj in loaded.scene.objects.items():
         faces, vertices = loaded.faces[name], loaded.vertices[name]
@@ -233,8 +264,20 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
         if cache is not None and key in cache:
             normals, rho = cache[key]
         else:
-            normals = shading_normals(vertices, faces, crease_angle)
-            rho = curvature_radius(vertices, faces, normals)
+            moved, ref = None, None
+            if cache is not None and reference is not None:
+                ref = cache.get(("reference", name))
+                if ref is None:
+                    v_ref, f_ref = reference(name)
+                    v_ref, f_ref = np.asarray(v_ref, float), np.asarray(f_ref)
+                    n_ref = shading_normals(v_ref, f_ref, crease_angle)
+                    ref = cache[("reference", name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref)
+                moved = rigid_motion(ref[2], ref[3], vertices, faces)
+            if moved is not None:  # the reference mesh moved rigidly (a body segment): turn its normals
+                normals, rho = ref[0] @ moved.T, ref[1]
+            else:
+                normals = shading_normals(vertices, faces, crease_angle)
+                rho = curvature_radius(vertices, faces, normals)
             if cache is not None:
                 for old in [k for k in cache if k[0] == name]:
                     del cache[old]
@@ -607,6 +650,6 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     return out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels
 
 
-__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject", "cast",
+__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject", "cast",
            "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "merge_contributions",
-           "object_box", "radio_material", "reflect", "render", "scene_objects", "shading_normals"]
+           "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals"]
