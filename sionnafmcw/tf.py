@@ -35,7 +35,7 @@ if "tensorflow" in sys.modules and "drjit" not in sys.modules:
                   "in this process may now crash it. Import sionnafmcw.tf (or drjit) before tensorflow.",
                   RuntimeWarning, stacklevel=2)
 else:
-    from . import sionna_rt  # noqa: F401 pyflakes: ignore  (Dr.Jit must be loaded before TensorFlow, see the module docstring)
+    from . import sionna_rt  # noqa: F401  (Dr.Jit must be loaded before TensorFlow, see the module docstring)
 
 try:
     import tensorflow as tf

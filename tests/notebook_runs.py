@@ -9,11 +9,10 @@ environment in its first code cell: ``SIONNAFMCW_NOTEBOOK_QUICK=1`` (small setti
 
 from __future__ import annotations
 
-import os
-from contextlib import contextmanager
 from pathlib import Path
 
 import nbformat
+import pytest
 from nbclient import NotebookClient
 
 NOTEBOOK_DIR = Path(__file__).resolve().parents[1] / "notebooks"
@@ -25,25 +24,14 @@ EXPECTED = [
 ]
 
 
-@contextmanager
-def _environment(**values):
-    old = {k: os.environ.get(k) for k in values}
-    os.environ.update(values)
-    try:
-        yield
-    finally:
-        for k, v in old.items():
-            if v is None:
-                os.environ.pop(k, None)
-            else:
-                os.environ[k] = v
-
-
 def execute(name: str, out: Path) -> nbformat.NotebookNode:
     """Notebook ``name`` executed top to bottom at its quick settings, writing under ``out``;
     an error in a cell is kept as an ``error`` output (the tests assert there is none)."""
     nb = nbformat.read(NOTEBOOK_DIR / name, as_version=4)
-    with _environment(SIONNAFMCW_NOTEBOOK_QUICK="1", SIONNAFMCW_NOTEBOOK_OUT=str(out), MPLBACKEND="Agg"):
+    with pytest.MonkeyPatch.context() as env:   # the kernel inherits the environment
+        for key, value in (("SIONNAFMCW_NOTEBOOK_QUICK", "1"), ("SIONNAFMCW_NOTEBOOK_OUT", str(out)),
+                           ("MPLBACKEND", "Agg")):
+            env.setenv(key, value)
         client = NotebookClient(nb, timeout=900, kernel_name="python3", allow_errors=True,
                                 resources={"metadata": {"path": str(NOTEBOOK_DIR)}})
         client.execute()

@@ -742,9 +742,9 @@ class PixelEngine(Engine):
                 "engine's Lambertian model sees diffuse scattering only, so it sees nothing. Give the materials a "
                 "scattering_coefficient, set PixelEngine(scattering_coefficient=...) or use "
                 "model='physical-optics'.", stacklevel=3)
-        self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
+        cast_rays(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
         if self.model == "physical-optics":   # the PO cast's kernels (surface interaction), compiled while loading
-            self._cast(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (7, 1)), shading_normals=True)
+            cast_rays(scene, np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (7, 1)), shading_normals=True)
         return _State(names, index_by_id, materials)
 
     def _check_radar(self, radar) -> None:
@@ -752,17 +752,6 @@ class PixelEngine(Engine):
 
     def _geometry_changed(self) -> None:
         dr.eval()
-
-    # ------------------------------------------------------------------ ray casting
-    @staticmethod
-    def _cast(scene, origin, directions, shading_normals=False):
-        """First hits of rays from ``origin`` along ``directions [K, 3]`` (world): t, object id, triangle, barycentrics.
-
-        ``shading_normals``: also Mitsuba's shading normal of each hit (``ray_intersect``'s surface
-        interaction: the interpolated vertex normal where the mesh has them, else the facet
-        normal), appended as a sixth result ``[K, 3]`` (world, float64, unit).
-        """
-        return cast_rays(scene, origin, directions, shading_normals=shading_normals)
 
     # ------------------------------------------------------------------ public
     def render(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None) -> PixelRender:
@@ -781,7 +770,7 @@ class PixelEngine(Engine):
         centre = pose.position + rotation @ centre_local
         directions = self._directions @ rotation.T
         t_cast = time.perf_counter()
-        valid, t_hit, shape_id, prim, uv = self._cast(self._loaded.scene, centre, directions)
+        valid, t_hit, shape_id, prim, uv = cast_rays(self._loaded.scene, centre, directions)
         trace_seconds = time.perf_counter() - t_cast
         render, echoes = self._to_echoes(frame, animation, radar, pose, rotation, centre, valid, shape_id, prim, uv)
         self.last_render = render
@@ -918,7 +907,7 @@ class PixelEngine(Engine):
             return SurfaceSamples(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0)), 0, 0.0
         local_dirs, owner, steps = np.concatenate(dirs), np.concatenate(owner), np.concatenate(steps)
         t0 = time.perf_counter()
-        valid, _, shape_id, prim, uv, sh_normal = self._cast(loaded.scene, centre, local_dirs @ rotation.T,
+        valid, _, shape_id, prim, uv, sh_normal = cast_rays(loaded.scene, centre, local_dirs @ rotation.T,
                                                             shading_normals=True)
         seconds = time.perf_counter() - t0
         ids = np.array(sorted(state.index_by_id), dtype=np.int64)

@@ -192,16 +192,6 @@ def curvature_radius(vertices, faces, corner_normals, quantile: float = 0.02) ->
     return float(np.quantile(rho, quantile))
 
 
-# ---------------------------------------------------------------------------------------- ray cast
-def cast(scene, origins, directions):
-    """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` (world) on the Sionna
-    ``scene``: ``(valid, t, shape_id, triangle, barycentric [K, 2])`` as numpy
-    (:func:`sionnafmcw.sionna_rt.cast_rays`)."""
-    from ..sionna_rt import cast_rays
-
-    return cast_rays(scene, origins, directions)
-
-
 # ---------------------------------------------------------------------------------------- scene description
 @dataclass
 class SceneObject:
@@ -222,6 +212,8 @@ class SceneObject:
 #: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
 #: (PLY vertices are float32: about 1e-7 m of rounding at a few metres).
 RIGID_TOLERANCE = 1e-5
+#: Cache key tag of an object's reference mesh in :func:`scene_objects` (no object name equals it).
+_REFERENCE = object()
 
 
 def rigid_motion(old_vertices, old_faces, vertices, faces, tolerance: float = RIGID_TOLERANCE):
@@ -266,12 +258,12 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
         else:
             moved, ref = None, None
             if cache is not None and reference is not None:
-                ref = cache.get(("reference", name))
+                ref = cache.get((_REFERENCE, name))
                 if ref is None:
                     v_ref, f_ref = reference(name)
                     v_ref, f_ref = np.asarray(v_ref, float), np.asarray(f_ref)
                     n_ref = shading_normals(v_ref, f_ref, crease_angle)
-                    ref = cache[("reference", name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref)
+                    ref = cache[(_REFERENCE, name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref)
                 moved = rigid_motion(ref[2], ref[3], vertices, faces)
             if moved is not None:  # the reference mesh moved rigidly (a body segment): turn its normals
                 normals, rho = ref[0] @ moved.T, ref[1]
@@ -462,7 +454,9 @@ def render(loaded, origin, rotation, wavelength: float, velocities: dict, materi
         ee, aa = ee.ravel(), aa.ravel()
         local = np.stack([np.cos(ee) * np.cos(aa), np.cos(ee) * np.sin(aa), np.sin(ee)], -1)
         directions = local @ rotation.T
-        valid, t, shape, prim, uv = cast(loaded.scene, origin, directions)
+        from ..sionna_rt import cast_rays
+
+        valid, t, shape, prim, uv = cast_rays(loaded.scene, origin, directions)
         keep = valid & (shape == obj.shape_id)
         if not np.any(keep):
             continue
@@ -499,7 +493,9 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     k_out = k_in - 2 * np.einsum("pi,pi->p", n, k_in)[:, None] * n
     # start a hair off the surface along the outgoing ray (float32 scene)
     eps = 1e-5 * (1.0 + np.linalg.norm(s.position, axis=-1))
-    valid, t, shape, prim, uv = cast(loaded.scene, s.position + eps[:, None] * k_out, k_out)
+    from ..sionna_rt import cast_rays
+
+    valid, t, shape, prim, uv = cast_rays(loaded.scene, s.position + eps[:, None] * k_out, k_out)
     by_id = {o.shape_id: k for k, o in enumerate(objects)}
     known = valid & np.isin(shape, list(by_id))
     idx = np.flatnonzero(known)
@@ -596,10 +592,11 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
 #: engines (:func:`merge_contributions`; :func:`sionnafmcw.engines.pixel.merge_contributions`).
 #: The merge error is bounded relative to :math:`\sum|a|` of a cell, not to its echo, so cells
 #: whose PO integral nearly cancels (off-specular surfaces) need small cells. Measured on a
-#: circle-walk frame at the path engine's defaults (merged cube against the unmerged one, 3.8e5
-#: PO samples per pair): cells of 1/16 / 1/64 / 1/256 give 7.2e4 / 1.2e5 / 1.8e5 contributions,
-#: a cube difference of -18.6 / -26.9 / -32.6 dB and a largest change of a range-Doppler cell
-#: within 40 dB of the peak (clutter removed) of 7.0 / 4.3 / 0.17 dB; hence 1/256.
+#: circle-walk frame at the path engine's defaults (``python benchmarks/po_merge.py``: merged cube
+#: against the unmerged one, 3.8e5 PO samples per pair): cells of 1/16 / 1/64 / 1/256 give
+#: 7.2e4 / 1.2e5 / 1.8e5 contributions, a cube difference of -18.6 / -26.9 / -32.6 dB and a
+#: largest change of a range-Doppler cell within 40 dB of the peak (clutter removed) of
+#: 9.4 / 4.4 / 0.08 dB; a 0.2 m plate turned 0.3 rad: 4.0 / 0.27 / 0.04 dB; hence 1/256.
 MERGE_FRACTION = 1 / 256
 
 
@@ -650,6 +647,6 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     return out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels
 
 
-__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject", "cast",
+__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject",
            "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "merge_contributions",
            "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals"]

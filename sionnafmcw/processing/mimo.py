@@ -16,7 +16,6 @@ from __future__ import annotations
 import numpy as np
 
 
-
 def virtual_channels(x, tx_axis: int = 1) -> np.ndarray:
     """Merge the adjacent ``tx, rx`` axes of ``x`` (at ``tx_axis``, ``tx_axis + 1``) into one virtual axis (tx-major)."""
     x = np.asarray(x)
@@ -64,4 +63,3 @@ def tdm_phase_compensation(rd, radar, velocities, doppler_axis: int | None = 0, 
         phase = (-4.0 * np.pi / radar.centre_wavelength) * v.reshape(vshape) * delay.reshape(shape)
     rot = np.exp(1j * phase).astype(np.result_type(x.dtype, np.complex64))
     return x * rot
-

@@ -200,7 +200,8 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     def run(group):
         sizes = [c.x.size for c in group]
         offsets = np.concatenate([[0], np.cumsum(sizes)])
-        vectors = np.zeros((len(group) * len(terms), offsets[-1]), dtype=dtype)
+        # the last columns: two sources of zero strength at the corners of the band (ANCHORS)
+        vectors = np.zeros((len(group) * len(terms), offsets[-1] + len(ANCHORS)), dtype=dtype)
         for j, c in enumerate(group):
             for t, term in enumerate(terms):
                 w = c.strength * scale
@@ -208,9 +209,6 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                     if power:
                         w = w * (2j * np.pi * c.residual[i]) ** power / factorial(power)
                 vectors[j * len(terms) + t, offsets[j]:offsets[j + 1]] = w
-        # two sources of zero strength at the corners of the band (ANCHORS): finufft's type 3 sizes its
-        # grid from the sources' spread, and its error bound holds over the full band only
-        vectors = np.concatenate([vectors, np.zeros((vectors.shape[0], len(ANCHORS)), dtype=dtype)], axis=1)
         plan = finufft.Plan(3, 2, n_trans=vectors.shape[0], eps=accuracy.nufft_tol, isign=1, dtype=dtype.name,
                             nthreads=1, upsampfac=upsampfac, showwarn=0)
         plan.setpts(np.concatenate([c.x for c in group] + [ANCHORS[:, 0]]).astype(real),

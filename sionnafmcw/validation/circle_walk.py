@@ -151,8 +151,8 @@ def main(argv=None) -> int:
     options = {
         "path": PATH_DEFAULTS | {k: v for k, v in (("samples_per_src", args.samples_per_src),
                                                    ("max_depth", args.max_depth)) if v is not None},
-        "pixel": PIXEL_DEFAULTS | {"model": args.pixel_model} | {k: v for k, v in (("n_az", args.n_az),
-                                                                                  ("n_el", args.n_el)) if v is not None},
+        "pixel": {"model": args.pixel_model} | {k: v for k, v in (("n_az", args.n_az), ("n_el", args.n_el))
+                                                if v is not None},
     }
 
     metrics = {"experiment": "circle_walk", "radar": radar.name, "scene": str(scene_dir), "frames": n,
