@@ -27,11 +27,13 @@ Caveat: this machine has 2 cores shared with other users; the load average is pr
 numbers.
 
     python benchmarks/dataset.py [--items 8] [--frames 4] [--chirps 64] [--scenario moving_plate]
+        [--engine-options '{"static_scene": false}']
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import math
 import os
@@ -43,13 +45,13 @@ from pathlib import Path
 import numpy as np
 
 
-def make_spec(name, scenario, count, frames, chirps, seed, samples):
+def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None):
     params = {"num_frames": frames}
     if scenario == "moving_plate":
         params.update(speed={"uniform": [-3.0, 3.0]}, start_range={"uniform": [2.0, 6.0]})
     return {"name": name, "scenario": scenario, "count": count, "seed": seed,
             "radar": {"preset": "walk-77ghz", "num_chirps": chirps},
-            "engine_options": {"samples_per_src": samples}, "parameters": params}
+            "engine_options": {"samples_per_src": samples, **(engine_options or {})}, "parameters": params}
 
 
 def folder_bytes(path: Path) -> int:
@@ -67,7 +69,8 @@ def run(workers: int, args, root: Path) -> dict:
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         t_cluster = time.perf_counter() - t0
-        warm = make_spec(f"warm{workers}", args.scenario, workers, args.frames, args.chirps, 100 + workers, args.samples)
+        warm = make_spec(f"warm{workers}", args.scenario, workers, args.frames, args.chirps, 100 + workers, args.samples,
+                         args.engine_options)
         generate(warm, root / f"warm{workers}", scheduler=client, progress=False, item_threads=threads)
         t_warm = time.perf_counter() - t0
         # scheduler overhead: a burst of no-op tasks
@@ -75,7 +78,8 @@ def run(workers: int, args, root: Path) -> dict:
         ts = time.perf_counter()
         client.gather(client.map(lambda i: i, range(n_noop), pure=False))
         t_sched = (time.perf_counter() - ts) / n_noop
-        spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples)
+        spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples,
+                         args.engine_options)
         ts = time.perf_counter()
         index = generate(spec, root / f"bench{workers}", scheduler=client, progress=False, item_threads=threads)
         elapsed = time.perf_counter() - ts
@@ -96,11 +100,13 @@ def main(argv=None):
     parser.add_argument("--scenario", default="moving_plate", choices=["moving_plate", "straight_walk"])
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--keep", help="folder to keep the data sets in (default: a temporary one)")
+    parser.add_argument("--engine-options", type=json.loads, default={},
+                        help='more path-engine options as JSON, e.g. \'{"static_scene": false}\' (before/after runs)')
     args = parser.parse_args(argv)
 
     root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="sionnafmcw-bench-"))
     print(f"{args.items} items x {args.frames} frames of {args.scenario}, walk-77ghz with {args.chirps} chirps, "
-          f"samples_per_src={args.samples}; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
+          f"samples_per_src={args.samples}, engine options {args.engine_options}; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
     rows = []
     try:
         for w in args.workers:

@@ -12,6 +12,12 @@ contribution :math:`p` (a propagation path, or a pixel), at the start of the CPI
 Tx is in physical element order. Zero-gain entries are padding (Sionna pads per-link path
 lists to a common length).
 
+Static block. An engine may put first the contributions that are the same every frame (the static
+room seen from a fixed radar pose: zero Doppler) and mark them with ``static_count`` and
+``static_key``: contributions ``[..., :static_count]`` are then bit for bit the same in every
+:class:`Echoes` carrying the same ``static_key``, so their beat cube is too and the synthesizer
+computes it once (:func:`~sionnafmcw.synthesis.synthesize`, ``static_cache``).
+
 Ideal point targets (:meth:`Echoes.point_targets`) use spherical wavefronts per element and the
 bistatic radar equation
 
@@ -30,12 +36,27 @@ Monostatically this gives :math:`P_r = P_t G^2\lambda^2\sigma/((4\pi)^3R^4)` and
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .antenna import antenna_gain, direction_angles
 from .constants import SPEED_OF_LIGHT
+
+
+def _per_contribution(labels: np.ndarray) -> bool:
+    """True when ``labels`` ``[M, N, P]`` is a broadcast ``[P]`` vector (stride 0 over the element pairs)."""
+    return labels.ndim == 3 and labels.shape[0] * labels.shape[1] > 0 and labels.strides[:2] == (0, 0)
+
+
+def _concatenate_labels(parts: list[np.ndarray]) -> np.ndarray:
+    """Labels of :meth:`Echoes.concatenate`: the ``[P]`` vectors joined and broadcast again when every
+    part is one, else the full ``[M, N, P]`` arrays joined."""
+    parts = [np.asarray(p) for p in parts]
+    if all(_per_contribution(p) for p in parts):
+        joined = np.concatenate([p[0, 0] for p in parts])
+        return np.broadcast_to(joined, parts[0].shape[:2] + joined.shape)
+    return np.concatenate(parts, axis=2)
 
 
 def target_direction(azimuth, elevation) -> np.ndarray:
@@ -47,12 +68,31 @@ def target_direction(azimuth, elevation) -> np.ndarray:
 
 @dataclass
 class Echoes:
-    """Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start."""
+    """Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start.
+
+    Parameters
+    ----------
+    a, tau, doppler : array_like ``[num_tx, num_rx, num_contributions]``
+        Complex gain, delay (s) and Doppler shift (Hz), see the module docstring.
+    labels : array_like, optional
+        ``[num_contributions]`` (kept as a read-only broadcast view ``[num_tx, num_rx,
+        num_contributions]``) or ``[num_tx, num_rx, num_contributions]``.
+    static_count : int, keyword
+        Length of the static block: contributions ``[..., :static_count]``.
+    static_key : hashable, keyword
+        Identity of the static block. Contract (the engine guarantees it): every :class:`Echoes`
+        with the same ``static_key`` has the same ``static_count`` and bit-for-bit the same
+        ``a``, ``tau`` and ``doppler`` in ``[..., :static_count]``. ``None`` (default): no static
+        block, and then ``static_count`` must be 0. A key with ``static_count`` 0 is allowed (a
+        static scene with nothing in it); its block is empty.
+    """
 
     a: np.ndarray
     tau: np.ndarray
     doppler: np.ndarray
     labels: np.ndarray | None = None
+    static_count: int = field(default=0, kw_only=True)
+    static_key: object = field(default=None, kw_only=True)
 
     def __post_init__(self):
         self.a = np.asarray(self.a, dtype=np.complex128)
@@ -79,6 +119,24 @@ class Echoes:
                     f"Echoes.labels must have shape [num_contributions] or {self.a.shape}, got {labels.shape}"
                 )
             self.labels = labels
+        self._check_static_block()
+
+    def _check_static_block(self) -> None:
+        count = self.static_count
+        if isinstance(count, (bool, np.bool_)) or not isinstance(count, (int, np.integer)):
+            raise ValueError(f"Echoes.static_count must be an integer, got {count!r}")
+        if not 0 <= count <= self.num_contributions:
+            raise ValueError(f"Echoes.static_count={count} must lie in 0..num_contributions "
+                             f"({self.num_contributions})")
+        self.static_count = int(count)
+        if self.static_key is None:
+            if count:
+                raise ValueError(f"Echoes.static_key is None but static_count={count}: a static block needs a key")
+            return
+        try:
+            hash(self.static_key)
+        except TypeError:
+            raise ValueError(f"Echoes.static_key must be hashable, got {type(self.static_key).__name__}") from None
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -103,21 +161,37 @@ class Echoes:
 
     @classmethod
     def concatenate(cls, parts: list["Echoes"]) -> "Echoes":
-        """All contributions of ``parts`` side by side (labels kept where every part has them)."""
+        """All contributions of ``parts`` side by side (labels kept where every part has them).
+
+        The static block of ``parts[0]`` stays a prefix and is kept; those of the other parts are
+        not (they are no longer a prefix). Labels that are the same for every element pair in
+        every part (given as ``[num_contributions]``) stay a broadcast view.
+        """
         labels = None
         if parts and all(p.labels is not None for p in parts):
-            labels = np.concatenate([np.asarray(p.labels) for p in parts], axis=2)
-        return cls(
-            np.concatenate([p.a for p in parts], axis=2),
-            np.concatenate([p.tau for p in parts], axis=2),
-            np.concatenate([p.doppler for p in parts], axis=2),
-            labels,
-        )
+            labels = _concatenate_labels([p.labels for p in parts])
+        first = parts[0] if parts else None
+        a = np.concatenate([p.a for p in parts], axis=2)
+        tau = np.concatenate([p.tau for p in parts], axis=2)
+        doppler = np.concatenate([p.doppler for p in parts], axis=2)
+        static_count = first.static_count if first is not None else 0
+        static_key = first.static_key if first is not None else None
+        if not parts or not all(isinstance(p, Echoes) for p in parts) or len({p.a.shape[:2] for p in parts}) > 1:
+            return cls(a, tau, doppler, labels, static_count=static_count, static_key=static_key)
+        # every part passed the checks of __post_init__ and so does their concatenation: not
+        # checked again (a frame's echoes are ~1e5 contributions x element pairs)
+        out = object.__new__(cls)
+        out.a, out.tau, out.doppler, out.labels = a, tau, doppler, labels
+        out.static_count, out.static_key = static_count, static_key
+        return out
 
     def select(self, mask) -> "Echoes":
-        """Keep the contributions where ``mask`` ([num_contributions] bool) is true."""
+        """Keep the contributions where ``mask`` ([num_contributions] bool) is true; no static block."""
         mask = np.asarray(mask, dtype=bool)
-        labels = None if self.labels is None else np.asarray(self.labels)[..., mask]
+        labels = None
+        if self.labels is not None:
+            labels = np.asarray(self.labels)
+            labels = labels[0, 0, mask] if _per_contribution(labels) else labels[..., mask]
         return Echoes(self.a[..., mask], self.tau[..., mask], self.doppler[..., mask], labels)
 
     def received_power(self, tx_power: float) -> np.ndarray:
@@ -139,7 +213,7 @@ class Echoes:
         d = np.linalg.norm(radar.tx_positions[:, None, :] - radar.rx_positions[None, :, :], axis=-1)
         shape = (radar.num_tx, radar.num_rx, 1)
         a = np.full(shape, 10 ** (coupling_db / 20), dtype=complex)
-        return cls(a, (d / SPEED_OF_LIGHT)[..., None], np.zeros(shape), np.full(shape, "leakage"))
+        return cls(a, (d / SPEED_OF_LIGHT)[..., None], np.zeros(shape), np.array(["leakage"]))
 
     @classmethod
     def point_targets(cls, radar, ranges, radial_velocities, azimuths, elevations=0.0, rcs=1.0,

@@ -3,16 +3,21 @@
 For every frame :math:`n` (CPI start :math:`t_n` = the frame time): the engine gives the
 :class:`~sionnafmcw.Echoes` at :math:`t_n`, :func:`~sionnafmcw.synthesize` turns them into the
 IF cube with noise from a generator seeded by ``(seed, n)`` (so a resumed run, or a run of a
-frame subset, gives the same cube for the same frame), and the store receives the cube and the
-ground truth of every moving object: position (area-weighted centroid of its mesh), velocity
-(the manifest's) and radial velocity :math:`\\dot R` from the radar's phase centre (the centroid
-of the virtual array, positive receding). Memory is bounded by one frame, and checked against the memory available before anything is
-written. The run is crash-safe: killed or interrupted at any instant, the store is valid and the
-same call resumes it (see :func:`simulate`).
+frame subset, gives the same cube for the same frame; the noise-free cube of the engine's static
+echo block, the same every frame, is synthesised once per block and reused: ``static_cache``),
+and the store receives the cube and the ground truth of every moving object: position
+(area-weighted centroid of its mesh), velocity (the manifest's) and radial velocity
+:math:`\\dot R` from the radar's phase centre (the centroid of the virtual array, positive
+receding). The synthesis of frame :math:`n` runs on a worker thread while the engine computes
+frame :math:`n + 1`; frames are written in order, each once its cube is complete. Memory is
+bounded by one frame's echoes and one frame's synthesis, and checked against the memory
+available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
+valid and the same call resumes it (see :func:`simulate`).
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -130,6 +135,9 @@ def _check_ranges(animation, radar, pose, indices, names) -> dict:
 #: Bytes per cube sample while one frame is synthesised and written: the complex128 sum (16), the
 #: complex128 noise (16), the complex64 cube (8) and Zarr's encoded copy of it (8).
 SYNTHESIS_BYTES_PER_SAMPLE = 48
+#: Bytes per cube sample kept across frames: the noise-free complex128 cube of the engine's static
+#: echo block (``synthesize(..., static_cache=...)``).
+STATIC_CUBE_BYTES_PER_SAMPLE = 16
 
 
 def available_memory() -> int:
@@ -149,18 +157,23 @@ def available_memory() -> int:
 
 
 def frame_memory(radar, engine_obj=None) -> dict:
-    r"""Estimated peak memory (bytes) of one frame: ``{"cube", "synthesis", "engine", "total"}``.
+    r"""Estimated peak memory (bytes) of one frame: ``{"cube", "synthesis", "static", "engine", "total"}``.
 
     The cube holds :math:`N = L M N_{rx} N_s` samples; synthesis and the store write need about
-    :data:`SYNTHESIS_BYTES_PER_SAMPLE` bytes per sample (of which 8 are the complex64 cube itself).
+    :data:`SYNTHESIS_BYTES_PER_SAMPLE` bytes per sample (of which 8 are the complex64 cube itself),
+    the static block's cube :data:`STATIC_CUBE_BYTES_PER_SAMPLE` more, kept across frames, for an
+    engine with a ``static_scene`` (the path engine's default).
     ``engine``: the engine's own estimate, ``engine.memory_estimate(radar)`` when it has one, else 0.
+    The engine's frame :math:`n + 1` runs while frame :math:`n` is synthesised, so the total is
+    their sum.
     """
     n = int(radar.num_chirps) * int(radar.num_tx) * int(radar.num_rx) * int(radar.num_samples)
     estimate = getattr(engine_obj, "memory_estimate", None)
     engine_bytes = int(estimate(radar)) if callable(estimate) else 0
     synthesis = SYNTHESIS_BYTES_PER_SAMPLE * n
-    return {"samples": n, "cube": 8 * n, "synthesis": synthesis, "engine": engine_bytes,
-            "total": synthesis + engine_bytes}
+    static = STATIC_CUBE_BYTES_PER_SAMPLE * n if getattr(engine_obj, "static_scene", False) else 0
+    return {"samples": n, "cube": 8 * n, "synthesis": synthesis, "static": static, "engine": engine_bytes,
+            "total": synthesis + static + engine_bytes}
 
 
 def _check_memory(radar, engine_obj) -> None:
@@ -172,7 +185,8 @@ def _check_memory(radar, engine_obj) -> None:
         raise SimulationError(
             f"simulate: one frame needs about {need['total'] / gib:.2f} GiB (cube of {need['samples']:.3g} samples = "
             f"{radar.num_chirps} chirps x {radar.num_tx} Tx x {radar.num_rx} Rx x {radar.num_samples} samples, "
-            f"{need['cube'] / gib:.2f} GiB as complex64; synthesis {need['synthesis'] / gib:.2f} GiB{engine_part}) "
+            f"{need['cube'] / gib:.2f} GiB as complex64; synthesis {need['synthesis'] / gib:.2f} GiB, the static "
+            f"block's cube {need['static'] / gib:.2f} GiB{engine_part}) "
             f"but {have / gib:.2f} GiB of memory is available; lower the radar's num_samples or num_chirps")
 
 
@@ -254,11 +268,14 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             from tqdm.auto import tqdm
 
             bar = tqdm(total=len(todo), desc=f"simulate {out.name}", unit="frame")
-        for f in todo:
-            echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
+        static_cache = {}  # the beat cube of the engine's static echo block, computed once per block
+
+        def synthesise(f, echoes):
             rng = np.random.default_rng([int(seed), int(f)])
-            cube = synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng,
-                              leakage_db=leakage_db)
+            return synthesize(echoes, radar, frame_time=animation.frames[f].time, noise=noise, rng=rng,
+                              leakage_db=leakage_db, static_cache=static_cache)
+
+        def write(f, cube):
             if names:
                 positions = positions_at[f]
                 velocities = np.array([animation.object_velocity(f, n) for n in names])
@@ -268,6 +285,34 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial)
             if bar is not None:
                 bar.update(1)
+
+        # frame n is synthesised on a worker thread while the engine computes frame n + 1 (numpy
+        # and finufft release the GIL); frames are written in order by this thread, each once its
+        # cube is complete, so the store and its crash safety are as without the overlap. When the
+        # engine stops (an interrupt, an error) frame n is still written: what was done is kept.
+        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:
+            pending = None
+            try:
+                for f in todo:
+                    echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
+                    if pending is not None:
+                        done, pending = pending, None
+                        write(done[0], done[1].result())
+                    pending = (f, pool.submit(synthesise, f, echoes))
+                    del echoes
+                if pending is not None:
+                    done, pending = pending, None
+                    write(done[0], done[1].result())
+            except BaseException:
+                if pending is not None:
+                    done, pending = pending, None
+                    try:
+                        cube = done[1].result()
+                    except BaseException:  # noqa: BLE001  (the first failure is the one to report)
+                        cube = None
+                    if cube is not None:
+                        write(done[0], cube)
+                raise
     except BaseException as exc:
         if is_interrupt(exc) or received() is not None:
             signum = as_interrupted(exc).signum

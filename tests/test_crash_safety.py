@@ -384,3 +384,26 @@ def test_interrupt_inside_a_drjit_call_during_a_frame(tmp_path, plate, reference
     simulate(scene, str(radar), engine=CtrlCInFrameOne.__mro__[1](scattering_coefficient=0.5), out=out, seed=3,
              progress=False)
     assert_same_store(reference["pixel"], out)
+
+
+def test_engine_error_keeps_the_frames_done_before(tmp_path, plate, reference):
+    """An engine error in frame 2 while frame 1 is being synthesised (simulate overlaps the synthesis of
+    frame n with the engine's frame n + 1): frames 0 and 1 are written, the error reaches the caller,
+    and the store resumes to the uninterrupted run bit for bit."""
+    from sionnafmcw.engines import EngineError, PixelEngine
+    from sionnafmcw.simulation import simulate
+
+    class FailsInFrameTwo(PixelEngine):
+        def _frame_echoes(self, animation, radar, frame, pose):
+            if frame == 2:
+                raise EngineError("frame 2 cannot be done")
+            return super()._frame_echoes(animation, radar, frame, pose)
+
+    scene, radar = plate
+    out = tmp_path / "run.zarr"
+    with pytest.raises(EngineError, match="frame 2"):
+        simulate(scene, str(radar), engine=FailsInFrameTwo(scattering_coefficient=0.5), out=out, seed=3,
+                 progress=False)
+    assert open_run(out).done_frames.tolist() == [0, 1] and leftovers(out) == []
+    simulate(scene, str(radar), engine=PixelEngine(scattering_coefficient=0.5), out=out, seed=3, progress=False)
+    assert_same_store(reference["pixel"], out)

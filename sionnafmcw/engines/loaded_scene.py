@@ -65,6 +65,7 @@ class LoadedScene:
     PLY's for PLY meshes, as Mitsuba loaded it (float32, no velocities) for the other shapes, which
     may not move. ``loaded_files`` is what is written into the scene per object (PLY file, mtime
     and transform; ``"not-ply"`` and the transform otherwise), so that unchanged meshes are skipped.
+    ``changing``: the objects whose mesh changes in some frame of the animation.
     """
 
     scene: object
@@ -74,6 +75,7 @@ class LoadedScene:
     vertices: dict = field(default_factory=dict)         # name -> [V, 3] float64 (world, current frame)
     vertex_velocity: dict = field(default_factory=dict)  # name -> [V, 3] or None (current frame)
     loaded_files: dict = field(default_factory=dict)     # name -> what is written into the scene
+    changing: frozenset = frozenset()                    # names whose mesh changes in some frame
 
     @classmethod
     def load(cls, scene, animation: Animation) -> LoadedScene:
@@ -121,7 +123,8 @@ class LoadedScene:
                 if first is not None and info.type == "ply" and (
                         info.filename != first.filename or not np.array_equal(info.to_world, first.to_world)):
                     dynamic.add(name)
-        for name in sorted(dynamic & set(state.shape_ids)):
+        state.changing = frozenset(dynamic & set(state.shape_ids))
+        for name in sorted(state.changing):
             state._write_vertices(name, state.vertices[name])
         if dynamic:
             params.update()

@@ -294,7 +294,8 @@ class Render:
     coefficients :math:`\\sqrt{1 - S_i^2}\\Gamma_i`; ``direction [P, 3]``: the incident ray;
     ``step_az``, ``step_el`` ``[P, 3]``: its angular steps (mirrored); ``first_point [P, 3]``,
     ``first_velocity [P, 3]``: the first hit of the ray and its velocity; ``second_direction [P, 3]``:
-    the ray's direction after the first bounce (None for bounce 1); ``doppler_inner [P]``:
+    the ray's direction after the first bounce (None for bounce 1); ``parent [P]``: the index of
+    each sample's ray in the previous bounce's samples (None for bounce 1); ``doppler_inner [P]``:
     :math:`\\sum_{i=2}^{d-1}\\mathbf v_i\\cdot(\\hat{\\mathbf k}_{out,i} - \\hat{\\mathbf k}_{in,i})/\\lambda` (Hz);
     ``step [O]``: the angular step of each object's render (rad); ``num_rays``: rays cast.
     """
@@ -314,10 +315,41 @@ class Render:
     step: dict = field(default_factory=dict)
     num_rays: int = 0
     second_direction: np.ndarray | None = None
+    parent: np.ndarray | None = None
 
     @property
     def num_samples(self) -> int:
         return self.samples.num_samples
+
+    def select(self, keep) -> Render:
+        """The samples where ``keep`` (``[P]`` bool or indices) holds, with everything a further bounce needs."""
+        from dataclasses import replace
+
+        def pick(x):
+            return None if x is None else x[keep]
+
+        return replace(self, samples=self.samples.select(keep), source=pick(self.source),
+                       image_linear=pick(self.image_linear), image_offset=pick(self.image_offset),
+                       chain_reflection=pick(self.chain_reflection), direction=pick(self.direction),
+                       step_az=pick(self.step_az), step_el=pick(self.step_el), first_point=pick(self.first_point),
+                       first_velocity=pick(self.first_velocity), doppler_inner=pick(self.doppler_inner),
+                       second_direction=pick(self.second_direction), parent=pick(self.parent))
+
+    def reflected(self) -> tuple[np.ndarray, np.ndarray]:
+        r"""The shading normals turned to the incident side, :math:`\hat{\mathbf n}` with
+        :math:`\hat{\mathbf n}\cdot\hat{\mathbf k}_{in} \le 0`, and the mirrored rays
+        :math:`\hat{\mathbf k}_{out} = \hat{\mathbf k}_{in} - 2(\hat{\mathbf n}\cdot\hat{\mathbf k}_{in})\hat{\mathbf n}`, both ``[P, 3]``."""
+        s, k_in = self.samples, self.direction
+        n = s.normal * np.where(np.einsum("pi,pi->p", s.normal, k_in) > 0, -1.0, 1.0)[:, None]
+        return n, k_in - 2 * np.einsum("pi,pi->p", n, k_in)[:, None] * n
+
+    def carries_po(self) -> np.ndarray:
+        """``[P]`` bool: the samples with a coherent share, :math:`S < 1` and (from bounce 2 on) a
+        non-zero chain reflection; the others carry no PO echo."""
+        keep = self.samples.scattering_coefficient < 1.0
+        if self.depth > 1:
+            keep &= np.abs(self.chain_reflection) > 0
+        return keep
 
 
 def _circular_span(az):
@@ -478,7 +510,7 @@ def _empty_render(origin, steps, num_rays, depth=1) -> Render:
     z3 = np.zeros((0, 3))
     samples = SurfaceSamples(z3, z3, np.zeros(0), edges=np.zeros((0, 2, 3)), labels=np.zeros(0, dtype=str))
     return Render(samples, depth, z3, np.zeros((0, 3, 3)), z3, np.zeros(0, complex), z3, z3, z3, z3, z3,
-                  np.zeros(0), steps, num_rays)
+                  np.zeros(0), steps, num_rays, None if depth == 1 else z3, None if depth == 1 else np.zeros(0, np.int64))
 
 
 def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wavelength: float) -> Render:
@@ -488,9 +520,8 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     s = previous.samples
     if s.num_samples == 0:
         return _empty_render(np.zeros(3), previous.step, 0, previous.depth + 1)
-    n = s.normal * np.where(np.einsum("pi,pi->p", s.normal, previous.direction) > 0, -1.0, 1.0)[:, None]
     k_in = previous.direction
-    k_out = k_in - 2 * np.einsum("pi,pi->p", n, k_in)[:, None] * n
+    n, k_out = previous.reflected()
     # start a hair off the surface along the outgoing ray (float32 scene)
     eps = 1e-5 * (1.0 + np.linalg.norm(s.position, axis=-1))
     from ..sionna_rt import cast_rays
@@ -522,7 +553,7 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     second = k_out[idx] if previous.depth == 1 else previous.second_direction[idx]
     return Render(samples, previous.depth + 1, source, lin, off, chain, direction, s_az, s_el,
                   previous.first_point[idx], previous.first_velocity[idx], inner, previous.step, int(valid.size),
-                  second)
+                  second, idx)
 
 
 # ---------------------------------------------------------------------------------------- PO of a bounce
@@ -600,7 +631,8 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
 MERGE_FRACTION = 1 / 256
 
 
-def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell: float, frequency: float):
+def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell: float, frequency: float,
+                        return_cells: bool = False):
     r"""Sum contributions that the radar cannot tell apart into one per cell and element pair.
 
     ``a, tau, doppler`` ``[M, N, P]``, ``labels [P]``. Contributions of one label whose centre-pair
@@ -612,12 +644,15 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     cell, at most :math:`\pi B\,\delta\tau` and :math:`\pi T_{CPI}\,\delta f` at the ends of a chirp
     and of the CPI (:math:`\pi/256` for cells of :data:`MERGE_FRACTION` = 1/256 of the range and
     velocity resolution).
-    Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``.
+    Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``; with ``return_cells`` also the
+    cell of every contribution ``[P]`` (index into ``G``), so that contributions can later be
+    taken out of their cell at the same :math:`\bar\tau` (:mod:`~sionnafmcw.engines.static_scene`).
     """
     a = np.asarray(a)
     m, n, p = a.shape
     if p == 0:
-        return a, tau, doppler, np.asarray(labels)
+        out = (a, tau, doppler, np.asarray(labels))
+        return (*out, np.zeros(0, dtype=np.int64)) if return_cells else out
     names, lab = np.unique(np.asarray(labels).astype(str), return_inverse=True)
     i_tau = np.floor(tau[0, 0] / delay_cell).astype(np.int64)
     i_dop = np.floor(doppler[0, 0] / doppler_cell).astype(np.int64)
@@ -644,9 +679,33 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     first = np.zeros(g, dtype=np.int64)
     first[group[::-1]] = np.arange(p)[::-1]
     out_labels = names[lab.reshape(-1)[first]]
-    return out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels
+    out = (out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels)
+    return (*out, group) if return_cells else out
+
+
+def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequency: float):
+    r"""Contributions that remove ``a, tau`` ``[M, N, K]`` (merged earlier into cells ``cell [K]``) from
+    their cells: one contribution per cell touched, at the cell's delay :math:`\bar\tau` and Doppler,
+
+    .. math:: -\sum_{i \in \text{cell}} a_i\,e^{-j2\pi f_c(\tau_i - \bar\tau)},
+
+    so that the merged cell plus it is exactly the merge of the contributions left in it, at the same
+    :math:`\bar\tau` (the merge error bound of :func:`merge_contributions` holds for any
+    :math:`\bar\tau` inside the cell). ``cell_tau``, ``cell_doppler`` ``[M, N, G]`` and
+    ``cell_labels [G]`` are the merged output. Returns ``(a, tau, doppler, labels)``.
+    """
+    m, n, k = a.shape
+    cells, inverse = np.unique(cell, return_inverse=True)
+    g = cells.size
+    z = -a * np.exp(-2j * np.pi * frequency * (tau - cell_tau[:, :, cell]))
+    flat = z.reshape(m * n, k)
+    out = np.empty((m * n, g), complex)
+    for j in range(m * n):
+        out[j] = np.bincount(inverse, flat[j].real, g) + 1j * np.bincount(inverse, flat[j].imag, g)
+    return out.reshape(m, n, g), cell_tau[:, :, cells], cell_doppler[:, :, cells], np.asarray(cell_labels)[cells]
 
 
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject",
            "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "merge_contributions",
-           "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals"]
+           "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals",
+           "take_out_of_cells"]

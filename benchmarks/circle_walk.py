@@ -1,0 +1,302 @@
+"""The paper's circle walk end to end, path engine "before" (A) against "after" (B): time, memory, accuracy.
+
+What it measures: ``make demo`` (``validation/circle_walk.py --engine path``) without the plots.
+The ``circle_walk`` scene (one 3 m lap in 100 frames) is simulated with radar ``walk-77ghz``
+into a Zarr store (``validation.common.run_engine`` = ``simulate``, noise seed 0) and analysed
+as the validation does (``validation.circle_walk.analyse``: e_velo, median error, share of
+CPIs within one Doppler bin), for two path-engine settings:
+
+* A, "before": ``PathEngine(static_scene=False)``: every frame traced and PO-rendered whole;
+* B, "after": the engine's defaults (``static_scene=True``: the static room's paths and PO
+  cached per radar pose).
+
+How: for every solver seed (``--seeds``, engine option ``seed``) the A and B runs follow each
+other (same machine load), each in its own subprocess (``--worker``), so that its peak RSS
+(``ru_maxrss`` of the worker, children reported apart) is its own. The worker creates the engine
+itself (``sionnafmcw.engines.create("path", **options)``) and reads ``engine.stats``: per run the
+total ``simulate`` seconds (imports, animation load and engine creation reported apart; the scene
+is built beforehand), seconds per frame, every ``*_seconds`` figure of the engine summed over
+frames (``po_seconds``, ``trace_seconds``, ``adapt_seconds``, ``static_seconds``, whatever is
+present), synthesis + store (simulate minus engine), the first frame apart (scene load, kernel
+compilation: ``kernels_compiled``, ``reloaded``) from the steady state (median of frames >= 1).
+
+``--cold``: one extra pair of short runs (``--cold-frames``, method B, first seed) with Dr.Jit's
+on-disk kernel cache in a fresh temporary directory: the first run compiles every kernel (cold),
+the second reuses that directory (warm). Dr.Jit reads the cache directory from the environment
+variable ``DRJIT_CACHE_DIR`` when it initialises (default ``$HOME/.drjit``, files
+``<hash>.llvm.v6.bin``), so the worker gets it in its environment before ``drjit`` is imported.
+
+    python benchmarks/circle_walk.py [--frames 100] [--seeds 1 2 3] [--scene DIR] [--cold] [--json PATH]
+    python benchmarks/circle_walk.py --frames 4 --seeds 1 --scene /tmp/cw8 --method-a '{}'
+
+Measured
+--------
+``python benchmarks/circle_walk.py --frames 100 --seeds 1 2 3 --scene /tmp/cw8 --cold`` on the
+2-core machine with nothing else running (the 8 mm circle-walk scene built beforehand; seconds
+over the 100 frames; ``synth+st`` is ``simulate`` minus the engine: the synthesis of frame n runs
+on a worker thread while the engine computes frame n + 1, so only what does not overlap shows)::
+
+    run      total s s/frame first s steady engine s synth+st  adapt    po static trace e_velo median <1 bin peak MiB
+    A mean     236.9    2.37     4.0   2.30    230.1      6.8    3.0 205.8      -   7.5  0.489  0.102    42%     1934
+    B mean      91.5    0.92     3.7   0.81     84.5      7.1    1.6  58.2    2.9   7.2  0.489  0.102    42%     1513
+
+time B/A 0.378 / 0.394 / 0.388 (seeds 1 / 2 / 3), mean 0.386; peak memory B/A 0.78; e_velo
+0.485 / 0.522 / 0.459 m/s for both (identical to four decimals: the static split changes the
+echoes only by the PO merge error). Kernel cache: first frame 4.1 s cold (23 kernels compiled),
+3.3 s warm (1). The engine's PO of the moving body (some 4e4 first-bounce samples at the
+resolution rule's 3.5 mm, and their second bounces) is now 64 % of the run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+METHODS = {"A": {"static_scene": False}, "B": {}}
+LABELS = {"A": "before", "B": "after"}
+REPO = Path(__file__).resolve().parents[1]
+
+
+# ----------------------------------------------------------------------------- worker (one run)
+def worker(spec: dict) -> dict:
+    t0 = time.perf_counter()
+    import numpy as np
+
+    from sionnafmcw import engines, sionna_rt  # noqa: F401  (Dr.Jit, Mitsuba and Sionna imported here)
+    from sionnafmcw.animation import load_animation
+    from sionnafmcw.radar import RadarConfig
+    from sionnafmcw.validation.circle_walk import analyse
+    from sionnafmcw.validation.common import run_engine
+
+    t_import = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    animation = load_animation(spec["scene"])
+    radar = RadarConfig.resolve(spec["radar"])
+    frames = list(range(min(spec["frames"], animation.num_frames)))
+    try:
+        engine = engines.create("path", **spec["options"])
+    except (TypeError, ValueError, engines.EngineError) as exc:
+        raise SystemExit(f"engine options {spec['options']}: {exc}") from None
+    t_setup = time.perf_counter() - t0
+    store = Path(spec["store"])
+    run, seconds = run_engine(animation, radar, engine, store, frames=frames, seed=0, progress=False)
+    stats = list(engine.stats)
+    t0 = time.perf_counter()
+    result = analyse(run, frames=frames)
+    t_analysis = time.perf_counter() - t0
+    if not spec.get("keep"):
+        import shutil
+        shutil.rmtree(store, ignore_errors=True)
+
+    per_frame = np.array([s.seconds for s in stats])
+    keys = sorted({k for s in stats for k in s.figures if k.endswith("_seconds")})
+    stage = {k: float(sum(s.figures.get(k, 0.0) for s in stats)) for k in keys}
+    first = stats[0]
+    rest = stats[1:]
+    ru_self = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024  # KiB on Linux
+    ru_child = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024
+    return {
+        "options": spec["options"], "engine_settings": engine.settings(), "frames": len(frames),
+        "import_seconds": t_import, "setup_seconds": t_setup, "analysis_seconds": t_analysis,
+        "total_seconds": seconds, "seconds_per_frame": seconds / len(frames),
+        "engine_seconds": float(per_frame.sum()), "synthesis_store_seconds": seconds - float(per_frame.sum()),
+        "stage_seconds": stage,
+        "first_frame": {"seconds": first.seconds, "kernels_compiled": first.kernels_compiled,
+                        "kernels_launched": first.kernels_launched, "reloaded": first.reloaded,
+                        "stage_seconds": {k: float(first.figures.get(k, 0.0)) for k in keys}},
+        "steady": {"engine_seconds_median": float(np.median(per_frame[1:])) if rest else None,
+                   "stage_seconds_median": {k: float(np.median([s.figures.get(k, 0.0) for s in rest]))
+                                            for k in keys} if rest else {},
+                   "kernels_compiled": int(sum(s.kernels_compiled for s in rest))},
+        "kernels_compiled": int(sum(s.kernels_compiled for s in stats)),
+        "metrics": {k: result[k] for k in ("e_velo", "e_velo_cpi_centre", "median_abs_error", "max_abs_error",
+                                           "bias", "fraction_within_one_bin", "velocity_bin", "num_cpis")},
+        "peak_rss_mib": ru_self, "peak_rss_children_mib": ru_child,
+    }
+
+
+# ----------------------------------------------------------------------------- parent
+def launch(spec: dict, env_extra: dict | None = None) -> dict:
+    """Run one worker subprocess on ``spec``; its JSON result (its output goes to our stderr)."""
+    with tempfile.NamedTemporaryFile("r", suffix=".json", delete=False) as fh:
+        result_path = fh.name
+    env = os.environ | (env_extra or {})
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", json.dumps(spec), "--result", result_path]
+    t0 = time.perf_counter()
+    proc = subprocess.run(cmd, env=env, cwd=REPO, stdout=sys.stderr, stderr=sys.stderr)
+    wall = time.perf_counter() - t0
+    try:
+        text = Path(result_path).read_text()
+    finally:
+        os.unlink(result_path)
+    if proc.returncode != 0 or not text:
+        raise SystemExit(f"worker {spec['label']} failed (exit status {proc.returncode}); its output is above")
+    return json.loads(text) | {"process_wall_seconds": wall}
+
+
+def fmt_row(name: str, r: dict, keys: list[str]) -> str:
+    m = r["metrics"]
+    steady = r["steady"]["engine_seconds_median"]
+    cells = [f"{name:<12}", f"{r['total_seconds']:8.1f}", f"{r['seconds_per_frame']:7.2f}",
+             f"{r['first_frame']['seconds']:7.1f}", f"{steady if steady is not None else float('nan'):7.2f}",
+             f"{r['engine_seconds']:8.1f}", f"{r['synthesis_store_seconds']:8.1f}"]
+    cells += [f"{r['stage_seconds'][k]:{max(len(k) - 8, 7)}.1f}" if k in r["stage_seconds"]
+              else f"{'-':>{max(len(k) - 8, 7)}}" for k in keys]
+    cells += [f"{m['e_velo']:7.3f}", f"{m['median_abs_error']:7.3f}", f"{100 * m['fraction_within_one_bin']:5.0f}%",
+              f"{r['peak_rss_mib']:8.0f}"]
+    return " ".join(cells)
+
+
+def print_table(runs: list[dict], seeds: list[int]) -> dict:
+    keys = sorted({k for r in runs for k in r["stage_seconds"]})
+    head = (f"{'run':<12} {'total s':>8} {'s/frame':>7} {'first s':>7} {'steady':>7} {'engine s':>8} "
+            f"{'synth+st':>8} " + "".join(f"{k[:-8]:>{max(len(k) - 8, 7)}} " for k in keys)
+            + f"{'e_velo':>7} {'median':>7} {'<1 bin':>6} {'peak MiB':>8}")
+    print(head)
+    print("-" * len(head))
+    by = {(r["method"], r["seed"]): r for r in runs}
+    summary = {"per_seed": {}, "mean": {}}
+    for seed in seeds:
+        for method in ("A", "B"):
+            print(fmt_row(f"{method} s{seed}", by[method, seed], keys))
+        a, b = by["A", seed], by["B", seed]
+        summary["per_seed"][seed] = {
+            "time_ratio_b_over_a": b["total_seconds"] / a["total_seconds"],
+            "peak_rss_ratio_b_over_a": b["peak_rss_mib"] / a["peak_rss_mib"],
+            "abs_delta_e_velo": abs(b["metrics"]["e_velo"] - a["metrics"]["e_velo"])}
+    mean = lambda xs: sum(xs) / len(xs)  # noqa: E731
+    for method in ("A", "B"):
+        rs = [by[method, s] for s in seeds]
+        summary["mean"][method] = {
+            "total_seconds": mean([r["total_seconds"] for r in rs]),
+            "seconds_per_frame": mean([r["seconds_per_frame"] for r in rs]),
+            "first_frame_seconds": mean([r["first_frame"]["seconds"] for r in rs]),
+            "steady_engine_seconds": mean([r["steady"]["engine_seconds_median"] or 0.0 for r in rs]),
+            "engine_seconds": mean([r["engine_seconds"] for r in rs]),
+            "synthesis_store_seconds": mean([r["synthesis_store_seconds"] for r in rs]),
+            "stage_seconds": {k: mean([r["stage_seconds"][k] for r in rs]) for k in keys
+                              if all(k in r["stage_seconds"] for r in rs)},
+            "e_velo": mean([r["metrics"]["e_velo"] for r in rs]),
+            "median_abs_error": mean([r["metrics"]["median_abs_error"] for r in rs]),
+            "fraction_within_one_bin": mean([r["metrics"]["fraction_within_one_bin"] for r in rs]),
+            "peak_rss_mib": mean([r["peak_rss_mib"] for r in rs])}
+    if len(seeds) > 1:
+        for method in ("A", "B"):
+            mm = summary["mean"][method]
+            row = {"total_seconds": mm["total_seconds"], "seconds_per_frame": mm["seconds_per_frame"],
+                   "first_frame": {"seconds": mm["first_frame_seconds"]},
+                   "steady": {"engine_seconds_median": mm["steady_engine_seconds"]},
+                   "engine_seconds": mm["engine_seconds"], "synthesis_store_seconds": mm["synthesis_store_seconds"],
+                   "stage_seconds": mm["stage_seconds"], "peak_rss_mib": mm["peak_rss_mib"],
+                   "metrics": {k: mm[k] for k in ("e_velo", "median_abs_error", "fraction_within_one_bin")}}
+            print(fmt_row(f"{method} mean", row, keys))
+    print()
+    for seed, s in summary["per_seed"].items():
+        print(f"seed {seed}: time B/A {s['time_ratio_b_over_a']:.3f}, peak memory B/A "
+              f"{s['peak_rss_ratio_b_over_a']:.3f}, |e_velo B - e_velo A| {s['abs_delta_e_velo']:.4f} m/s")
+    ma, mb = summary["mean"]["A"], summary["mean"]["B"]
+    summary["mean"]["time_ratio_b_over_a"] = mb["total_seconds"] / ma["total_seconds"]
+    summary["mean"]["peak_rss_ratio_b_over_a"] = mb["peak_rss_mib"] / ma["peak_rss_mib"]
+    summary["mean"]["abs_delta_e_velo"] = mean([s["abs_delta_e_velo"] for s in summary["per_seed"].values()])
+    print(f"mean over {len(seeds)} seed(s): time B/A {summary['mean']['time_ratio_b_over_a']:.3f}, peak memory "
+          f"B/A {summary['mean']['peak_rss_ratio_b_over_a']:.3f}, |e_velo B - e_velo A| "
+          f"{summary['mean']['abs_delta_e_velo']:.4f} m/s")
+    return summary
+
+
+def json_dict(text: str, flag: str) -> dict:
+    try:
+        value = json.loads(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(f"{flag}: not JSON ({exc})") from None
+    if not isinstance(value, dict):
+        raise argparse.ArgumentTypeError(f"{flag}: expected a JSON object of engine options, got {text!r}")
+    return value
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--frames", type=int, default=100, help="frames per run (default 100: the whole lap)")
+    p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3], help="path solver seeds (default 1 2 3)")
+    p.add_argument("--scene", default=None, help="existing circle_walk animation directory (default: build one)")
+    p.add_argument("--out", default="out/bench_circle_walk", help="scene and temporary run stores")
+    p.add_argument("--radar", default="walk-77ghz")
+    p.add_argument("--method-a", type=lambda s: json_dict(s, "--method-a"), default=METHODS["A"],
+                   help=f"engine options of A, JSON (default {json.dumps(METHODS['A'])})")
+    p.add_argument("--method-b", type=lambda s: json_dict(s, "--method-b"), default=METHODS["B"],
+                   help=f"engine options of B, JSON (default {json.dumps(METHODS['B'])}: the engine's defaults)")
+    p.add_argument("--cold", action="store_true", help="also first-frame time with a cold vs warm kernel cache")
+    p.add_argument("--cold-frames", type=int, default=3)
+    p.add_argument("--keep-stores", action="store_true", help="keep the run stores under --out")
+    p.add_argument("--json", default=None, help="write every figure to this JSON file")
+    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+
+    if args.worker is not None:
+        Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+        return 0
+    if args.frames < 2:
+        p.error("--frames must be >= 2 (the steady state is frames >= 1)")
+    if args.cold and args.cold_frames < 1:
+        p.error("--cold-frames must be >= 1")
+    for opts in (args.method_a, args.method_b):
+        if "seed" in opts:
+            p.error("the solver seed comes from --seeds; leave 'seed' out of --method-a/--method-b")
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    if args.scene:
+        scene = Path(args.scene)
+        if not (scene / "animation.json").is_file():
+            p.error(f"--scene {scene}: no animation.json there")
+    else:
+        from sionnafmcw.validation.common import build_scene
+        scene = build_scene("circle_walk", out / "scene")
+    scene_seconds = time.perf_counter() - t0
+    methods = {"A": args.method_a, "B": args.method_b}
+    print(f"scene {scene} ({scene_seconds:.1f} s), {args.frames} frames, seeds {args.seeds}, "
+          f"A = {json.dumps(methods['A'])}, B = {json.dumps(methods['B'])}", file=sys.stderr)
+
+    def spec(method, seed, frames, tag=""):
+        label = f"{method}{tag}_s{seed}"
+        return {"label": label, "scene": str(scene), "radar": args.radar, "frames": frames,
+                "options": methods[method] | {"seed": seed}, "store": str(out / f"run_{label}.zarr"),
+                "keep": args.keep_stores}
+
+    runs = []
+    for seed in args.seeds:
+        for method in ("A", "B"):
+            print(f"-- run {method} ({LABELS[method]}), seed {seed}", file=sys.stderr)
+            runs.append(launch(spec(method, seed, args.frames)) | {"method": method, "seed": seed})
+    summary = print_table(runs, args.seeds)
+
+    cold_warm = None
+    if args.cold:
+        with tempfile.TemporaryDirectory(prefix="drjit-cache-") as cache:
+            env = {"DRJIT_CACHE_DIR": cache}
+            cold = launch(spec("B", args.seeds[0], args.cold_frames, "cold"), env)
+            warm = launch(spec("B", args.seeds[0], args.cold_frames, "warm"), env)
+        cold_warm = {"frames": args.cold_frames, "method": "B", "seed": args.seeds[0], "cold": cold, "warm": warm}
+        print(f"\nkernel cache (B, {args.cold_frames} frames, DRJIT_CACHE_DIR fresh): first frame cold "
+              f"{cold['first_frame']['seconds']:.1f} s ({cold['first_frame']['kernels_compiled']} kernels compiled), "
+              f"warm {warm['first_frame']['seconds']:.1f} s ({warm['first_frame']['kernels_compiled']} compiled)")
+    if args.json:
+        Path(args.json).write_text(json.dumps({
+            "scene": str(scene), "scene_seconds": scene_seconds, "radar": args.radar, "frames": args.frames,
+            "seeds": args.seeds, "noise_seed": 0, "methods": methods, "runs": runs, "summary": summary,
+            "cold_warm": cold_warm}, indent=1))
+        print(f"wrote {args.json}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,309 @@
+r"""The static scene once per radar pose: what the moving objects change, per frame, and nothing else.
+
+In an indoor animation most of the echo comes from surfaces that do not move (walls, floor,
+ceiling, furniture): the circle walk's PO render has some 1.4e5 of its 1.8e5 first-bounce samples
+and 1.8e5 of 1.8e5 second-bounce ones on the room, and most of Sionna's diffuse paths are room
+paths. With the radar at a fixed pose these are the same in every frame, except where a moving
+object is in their way. The path engine (``static_scene=True``) therefore splits every frame's
+echo into
+
+* a **static block**: every path and PO chain that touches only static objects, traced and
+  rendered once per radar pose with the moving objects taken out of the scene (:func:`hidden`),
+  turned into echoes once; bit for bit the same :class:`~sionnafmcw.echoes.Echoes` block in every
+  frame (``static_key``), so the synthesizer computes its beat cube once
+  (:func:`sionnafmcw.synthesis.synthesize`, ``static_cache``);
+* per frame, **what the moving objects change**: the paths and PO chains that touch a moving
+  object (traced and rendered as before), and the static ones that a moving object now blocks,
+  entered with the opposite sign.
+
+Why this is the whole frame, exactly
+------------------------------------
+Every ray (Sionna's shot rays, the PO render's grid rays and their reflections) depends only on
+its origin, direction and seed, never on the other rays. A ray's first hit in the scene with the
+moving objects is its first hit in the static scene unless a moving object lies on the ray before
+it; then the ray ends on the moving object. So, ray by ray and segment by segment, a static chain
+(path or PO chain made of static interactions only) of the full scene is a static chain of the
+static scene whose segments no moving object blocks, and every chain of the full scene that is not
+such a chain touches a moving object. Per frame:
+
+.. math::
+    E_{frame} = E_{static} - \sum_{c\ \in\ \text{static, blocked}} E_c + \sum_{c\ \in\ \text{touching a moving object}} E_c .
+
+*Blocked* is decided on the chains' segments: source → first interaction → … → last interaction
+(→ receiver for Sionna's paths, whose last segment Sionna tests for visibility; the PO return
+retraces the first segment on the first bounce and is not tested from the second on, as without
+the cache, :mod:`~sionnafmcw.engines.po_render`). A segment can only be blocked where it passes
+through the bounding sphere of a moving object (:class:`Spheres`, centre the box centre, radius the
+farthest vertex), so only those segments are cast again, in the full scene
+(:func:`blocked_segments`); a hit on a moving object before the segment's end blocks it. A
+static PO chain whose reflected ray now hits a moving object first ends there instead: its next
+bounce is rendered per frame on the moving object and the cached one is removed (the same test,
+on the reflected ray, to its cached next hit or to infinity).
+
+The PO echoes of the static block are merged into cells as without the cache
+(:func:`~sionnafmcw.engines.po_render.merge_contributions`); a blocked sample is taken out of its
+cell at the cell's delay (:func:`~sionnafmcw.engines.po_render.take_out_of_cells`), which is the
+merge of the samples left in the cell, within the same error bound. So the frame's echoes equal
+those of the uncached engine up to the merge error (test: ``tests/test_static_scene.py``) and
+depend on the frame only (the cache depends on the pose and the static geometry, not on the frames
+before).
+
+Which objects are static: those whose PLY does not change in any frame of the animation
+(:attr:`~sionnafmcw.engines.loaded_scene.LoadedScene.changing`), with no rigid velocity in this
+frame and no non-zero per-vertex velocity. The cache is rebuilt when the radar pose or the static
+set changes.
+
+Taking objects out of the scene: :func:`hidden` collapses every vertex of their meshes onto one
+point, so their triangles have no area and no ray hits them (Mitsuba's ray-triangle test rejects
+degenerate triangles), through the same scene-parameter update as a frame's geometry (no new
+kernels), and writes the frame's vertices back afterwards.
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import numpy as np
+
+#: A segment counts as blocked when a moving object is hit more than this far (m) before its end
+#: (Mitsuba's float32 hits at a few metres are good to about 1e-6 m; a blocker is a body part).
+SEGMENT_TOLERANCE = 1e-4
+
+
+def moving_objects(loaded, rigid_velocities: dict, vertex_doppler: bool = True) -> frozenset:
+    """Names of the objects that move in this frame or change their mesh in any frame (module docstring)."""
+    names = set(loaded.changing)
+    for name, v in rigid_velocities.items():
+        if np.any(np.asarray(v) != 0):
+            names.add(name)
+    for name, field_v in loaded.vertex_velocity.items():
+        if vertex_doppler and field_v is not None and np.any(field_v != 0):
+            names.add(name)
+    return frozenset(names & set(loaded.shape_ids))
+
+
+@contextmanager
+def hidden(loaded, names):
+    """The scene of ``loaded`` without the objects ``names`` (their meshes collapsed onto one point)
+    for the duration of the block; the frame's vertices are written back on exit."""
+    names = sorted(names)
+
+    def write(vertices_of):
+        for name in names:
+            loaded._write_vertices(name, vertices_of(name))
+        if names:
+            loaded.params.update()
+            loaded.scene.scene_geometry_updated()
+
+    write(lambda name: np.repeat(loaded.vertices[name][:1], len(loaded.vertices[name]), axis=0))
+    try:
+        yield
+    finally:
+        write(lambda name: loaded.vertices[name])
+
+
+@dataclass
+class Spheres:
+    """Bounding spheres ``centre [K, 3]``, ``radius [K]`` (m) of the moving objects."""
+
+    centre: np.ndarray
+    radius: np.ndarray
+
+    @classmethod
+    def around(cls, vertex_sets) -> Spheres:
+        """One sphere per vertex set ``[V, 3]``: centre of the bounding box, radius to the farthest vertex."""
+        centres, radii = [], []
+        for v in vertex_sets:
+            v = np.asarray(v, float)
+            c = 0.5 * (v.min(axis=0) + v.max(axis=0))
+            centres.append(c)
+            radii.append(float(np.max(np.linalg.norm(v - c, axis=-1))) * (1 + 1e-6) + 1e-6)
+        return cls(np.reshape(np.asarray(centres, float), (-1, 3)), np.asarray(radii, float))
+
+    def meet(self, origins, directions, lengths) -> np.ndarray:
+        r"""``[P]`` bool: the segments :math:`\mathbf o + t\hat{\mathbf k}`, :math:`0 \le t \le \ell`
+        (``lengths`` may be ``inf``; ``directions`` unit) that pass through a sphere: with
+        :math:`t_c = (\mathbf c - \mathbf o)\cdot\hat{\mathbf k}` and :math:`d^2 = |\mathbf c - \mathbf o|^2 - t_c^2`,
+        :math:`d \le r` and :math:`[t_c - h, t_c + h]` (:math:`h = \sqrt{r^2 - d^2}`) meets :math:`[0, \ell]`."""
+        o = np.asarray(origins, float)
+        k = np.asarray(directions, float)
+        length = np.broadcast_to(np.asarray(lengths, float), (len(o),))
+        out = np.zeros(len(o), dtype=bool)
+        if len(o) == 0 or len(self.radius) == 0:
+            return out
+        # first the sphere around all the spheres, then each sphere on the segments that meet it
+        lo, hi = (self.centre - self.radius[:, None]).min(axis=0), (self.centre + self.radius[:, None]).max(axis=0)
+        c_all = 0.5 * (lo + hi)
+        r_all = float(np.max(np.linalg.norm(self.centre - c_all, axis=-1) + self.radius))
+        idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all)) if len(self.radius) > 1 else np.arange(len(o))
+        for c, r in zip(self.centre, self.radius):
+            out[idx] |= _meet_one(o[idx], k[idx], length[idx], c, r)
+        return out
+
+
+def _meet_one(o, k, length, c, r) -> np.ndarray:
+    """``[P]`` bool: the segments (:meth:`Spheres.meet`) through the one sphere ``(c, r)``."""
+    oc = c - o
+    tc = np.einsum("pi,pi->p", oc, k)
+    d2 = np.einsum("pi,pi->p", oc, oc) - tc ** 2
+    h = np.sqrt(np.clip(r * r - d2, 0.0, None))
+    return (d2 <= r * r) & (tc + h >= 0) & (tc - h <= length)
+
+
+def blocked_segments(loaded, starts, ends, moving_ids, tolerance: float = SEGMENT_TOLERANCE) -> np.ndarray:
+    """``[P]`` bool: the segments ``starts -> ends`` (world, m) on which a moving object (Mitsuba shape
+    ids ``moving_ids``) is hit more than ``tolerance`` before the end, cast in the full scene."""
+    from ..sionna_rt import cast_rays
+
+    starts = np.asarray(starts, float)
+    d = np.asarray(ends, float) - starts
+    length = np.linalg.norm(d, axis=-1)
+    if len(starts) == 0:
+        return np.zeros(0, dtype=bool)
+    k = d / np.maximum(length, 1e-300)[:, None]
+    eps = 1e-5 * (1.0 + np.linalg.norm(starts, axis=-1))   # off the start surface, as po_render.reflect
+    valid, t, shape, _, _ = cast_rays(loaded.scene, starts + eps[:, None] * k, k)
+    return valid & np.isin(shape, list(moving_ids)) & (t + eps < length - tolerance)
+
+
+def first_hit_moving(loaded, starts, directions, moving_ids) -> np.ndarray:
+    """``[P]`` bool: the rays ``starts + t directions`` (started off their surface as
+    :func:`~sionnafmcw.engines.po_render.reflect` does) whose first hit is on a moving object."""
+    from ..sionna_rt import cast_rays
+
+    if len(starts) == 0:
+        return np.zeros(0, dtype=bool)
+    eps = 1e-5 * (1.0 + np.linalg.norm(starts, axis=-1))
+    valid, _, shape, _, _ = cast_rays(loaded.scene, starts + eps[:, None] * directions, directions)
+    return valid & np.isin(shape, list(moving_ids))
+
+
+# ---------------------------------------------------------------------------------------- PO
+@dataclass
+class StaticPO:
+    """The PO render of the static objects (moving ones hidden), its echoes merged, and what a frame needs.
+
+    ``renders``: :class:`~sionnafmcw.engines.po_render.Render` per bounce; ``keep``: per bounce the
+    samples that carry PO (:meth:`~sionnafmcw.engines.po_render.Render.carries_po`); ``outgoing``:
+    per bounce but the last rendered, the reflected direction of every sample ``[P, 3]`` and the
+    index of its next-bounce sample (``-1``: none); ``cells``: per bounce the merge cell of every
+    kept sample and the merged cells ``(tau, doppler, labels)`` (None without merging);
+    ``echoes``: the merged static PO echoes of all bounces (None when empty).
+    """
+
+    renders: list
+    keep: list
+    outgoing: list
+    cells: list
+    echoes: object
+
+    @classmethod
+    def build(cls, loaded, objects, static_names, centre, rotation, wavelength: float, depth: int,
+              samples_across: int, contributions, merge) -> StaticPO:
+        """Render the ``static_names`` objects of ``objects`` from ``centre`` up to ``depth`` bounces
+        (call inside :func:`hidden`); ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of
+        a render's samples, ``merge(a, tau, doppler, labels)`` the merged ``(a, tau, doppler, labels,
+        cell)`` or None (no merging)."""
+        from ..echoes import Echoes
+        from .po_render import reflect, render
+
+        static = [o for o in objects if o.name in static_names]
+        bounce = render(loaded, centre, rotation, wavelength, {}, {}, objects=static, samples_across=samples_across)
+        renders = [bounce]
+        while bounce.depth < depth and bounce.num_samples:
+            bounce = reflect(loaded, bounce, objects, rotation, wavelength)
+            renders.append(bounce)
+        outgoing = []
+        for d in range(len(renders) - 1):
+            k_out = renders[d].reflected()[1]
+            child = np.full(renders[d].num_samples, -1, dtype=np.int64)
+            child[renders[d + 1].parent] = np.arange(renders[d + 1].num_samples)
+            outgoing.append((k_out, child))
+        keep, cells, parts = [], [], []
+        for b in renders:
+            kept = b.carries_po()
+            keep.append(kept)
+            if not np.any(kept):
+                cells.append(None)
+                continue
+            a, tau, doppler, labels = contributions(b.select(kept))
+            merged = merge(a, tau, doppler, labels)
+            if merged is None:
+                cells.append(None)
+                parts.append(Echoes(a, tau, doppler, labels))
+            else:
+                a_m, tau_m, dop_m, lab_m, cell = merged
+                cells.append((cell, tau_m, dop_m, lab_m))
+                parts.append(Echoes(a_m, tau_m, dop_m, lab_m))
+        echoes = None if not parts else (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
+        return cls(renders, keep, outgoing, cells, echoes)
+
+    @property
+    def num_samples(self) -> int:
+        return int(sum(int(k.sum()) for k in self.keep))
+
+    def frame(self, loaded, objects, moving_ids, spheres: Spheres, centre, rotation, wavelength: float, depth: int,
+              samples_across: int, contributions, frequency: float):
+        """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
+
+        ``renders``: the frame's own PO renders (the moving objects' render and its reflections,
+        and the static chains that now end on a moving object), to be turned into echoes as
+        without the cache; ``removed``: :class:`~sionnafmcw.echoes.Echoes` that take the blocked
+        static samples out of the static block (None when nothing is blocked); ``num_removed``:
+        how many static samples were taken out.
+        """
+        from ..echoes import Echoes
+        from .po_render import reflect, render, take_out_of_cells
+
+        moving = [o for o in objects if o.shape_id in moving_ids]
+        first = self.renders[0]
+        removed = [np.zeros(first.num_samples, dtype=bool)]
+        if first.num_samples and moving:
+            d = first.samples.position - first.source
+            length = np.linalg.norm(d, axis=-1)
+            cand = np.flatnonzero(spheres.meet(first.source, d / length[:, None], length))
+            removed[0][cand] = blocked_segments(loaded, first.source[cand], first.samples.position[cand], moving_ids)
+        own = [render(loaded, centre, rotation, wavelength, {}, {}, objects=moving, samples_across=samples_across)] \
+            if moving else []
+        frontier = list(own)
+        for d in range(1, depth):
+            nxt = [reflect(loaded, b, objects, rotation, wavelength) for b in frontier if b.num_samples]
+            if d < len(self.renders):
+                prev, (k_out, child) = self.renders[d - 1], self.outgoing[d - 1]
+                cached = self.renders[d]
+                gone = removed[d - 1][cached.parent]
+                if moving and prev.num_samples:
+                    length = np.full(prev.num_samples, np.inf)
+                    has = child >= 0
+                    length[has] = np.linalg.norm(cached.samples.position[child[has]] - prev.samples.position[has],
+                                                 axis=-1)
+                    cand = np.flatnonzero(~removed[d - 1] & spheres.meet(prev.samples.position, k_out, length))
+                    # the reflected rays that now end on a moving object: their cached next bounce goes,
+                    # and they are rendered again (only those) on the moving object
+                    cand = cand[first_hit_moving(loaded, prev.samples.position[cand], k_out[cand], moving_ids)]
+                    if cand.size:
+                        ended = child[cand]
+                        gone[ended[ended >= 0]] = True
+                        nxt.append(reflect(loaded, prev.select(cand), objects, rotation, wavelength))
+                removed.append(gone)
+            own.extend(nxt)
+            frontier = nxt
+        out = []
+        for b, gone, kept, cells in zip(self.renders, removed, self.keep, self.cells):
+            take = gone & kept
+            if not np.any(take):
+                continue
+            a, tau, doppler, labels = contributions(b.select(take))
+            if cells is None:
+                out.append(Echoes(-a, tau, doppler, labels))
+                continue
+            cell_of_kept, cell_tau, cell_dop, cell_lab = cells
+            cell = cell_of_kept[(np.cumsum(kept) - 1)[take]]
+            a_r, tau_r, dop_r, lab_r = take_out_of_cells(a, tau, cell, cell_tau, cell_dop, cell_lab, frequency)
+            out.append(Echoes(a_r, tau_r, dop_r, lab_r))
+        removed_echoes = None if not out else (out[0] if len(out) == 1 else Echoes.concatenate(out))
+        return own, removed_echoes, int(sum(int((g & k).sum()) for g, k in zip(removed, self.keep)))
+
+
+__all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_segments", "first_hit_moving", "hidden", "moving_objects"]

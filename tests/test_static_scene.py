@@ -1,0 +1,136 @@
+"""The static scene once per pose (engines/static_scene.py): the same echoes as tracing every frame whole.
+
+Scene: a rough concrete wall 4 m in front of the radar and a metal floor 1 m below it (static; diffuse
+paths, PO first and second bounces), and a metal box that crosses the line of sight at 2.5 m
+(moving; it blocks part of the wall and the floor, and adds its own chains: box, box-floor,
+floor-box). References are the same engine with ``static_scene=False`` (every frame traced and
+rendered whole). Tolerances:
+
+* without the PO merge the two are the same sum of the same contributions, so the noise-free cubes
+  agree to the synthesis error (relative tolerance 1e-7 of the tight default budget, and float32
+  output: 1e-6);
+* with the merge (default) a blocked sample leaves its cell at the cell's delay instead of the
+  cell being formed without it: the channel at the carrier is unchanged by any merge, so it agrees
+  to 1e-6, and the cube within the merge's own bound (each merged sample off by at most
+  ``2 pi MERGE_FRACTION`` of phase, twice: once per merge).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from animation_helpers import box_mesh, plate_mesh, write_moving_mesh_animation
+from sionnafmcw import RadarConfig
+from sionnafmcw.animation import load_animation
+from sionnafmcw.engines import PathEngine
+from sionnafmcw.engines.po_render import MERGE_FRACTION
+from sionnafmcw.engines.static_scene import Spheres
+from sionnafmcw.synthesis import synthesize
+
+RADAR = RadarConfig.preset("walk-77ghz").replace(num_chirps=16)
+MATERIALS = {
+    "mat-itu_metal": ("itu-radio-material", {"type": "metal"}),
+    "mat-rough-concrete": ("itu-radio-material", {"type": "concrete", "scattering_coefficient": 0.5}),
+}
+FRAMES = 5
+
+
+@pytest.fixture(scope="module")
+def crossing(tmp_path_factory):
+    """The wall, the floor and a 0.3 m box crossing the line of sight at 2.5 m (1.2 m/s along y)."""
+    wall_v, wall_f = plate_mesh(np.array([4.0, 0.0, 0.0]), size=(2.0, 2.0), normal_axis=0, subdiv=4)
+    floor_v, floor_f = plate_mesh(np.array([2.5, 0.0, -1.0]), size=(4.0, 2.0), normal_axis=2, subdiv=4)
+    velocity = np.array([0.0, 1.2, 0.0])
+
+    def box(t):
+        return box_mesh(np.array([2.5, -0.3, 0.0]) + velocity * t, (0.3, 0.3, 0.3))
+
+    root = write_moving_mesh_animation(
+        tmp_path_factory.mktemp("static") / "crossing", box, velocity, num_frames=FRAMES, fps=10.0, name="box",
+        materials=MATERIALS, static=[("wall", wall_v, wall_f, "mat-rough-concrete"),
+                                     ("floor", floor_v, floor_f, "mat-itu_metal")])
+    return load_animation(root)
+
+
+def frames_of(engine, anim):
+    return [engine.echoes(anim, RADAR, f) for f in range(FRAMES)]
+
+
+def carrier_channel(echoes):
+    return np.sum(echoes.a * np.exp(-2j * np.pi * RADAR.fc * echoes.tau), axis=-1)
+
+
+def cube(echoes, cache=None):
+    return synthesize(echoes, RADAR, noise=False, static_cache=cache)
+
+
+def test_static_scene_without_merge_is_the_same_sum(crossing):
+    full = PathEngine(static_scene=False, po_merge=False)
+    cached = PathEngine(po_merge=False)
+    cache = {}
+    blocked = new = 0
+    for f, (a, b) in enumerate(zip(frames_of(full, crossing), frames_of(cached, crossing))):
+        figures = cached.stats[f].figures
+        blocked += figures["static_po_removed"] + figures["static_blocked_paths"]
+        new += figures["po_samples"]
+        x, y = cube(a), cube(b, cache)
+        assert np.linalg.norm(y - x) <= 1e-6 * np.linalg.norm(x), f"frame {f}"
+    assert blocked > 0 and new > 0, "the box must block static chains and add its own"
+    assert cached.stats[1].figures["static_seconds"] == 0.0, "the static scene is built once per pose"
+
+
+def test_static_scene_with_merge_keeps_the_channel(crossing):
+    full = PathEngine(static_scene=False)
+    cached = PathEngine()
+    unmerged = PathEngine(static_scene=False, po_merge=False)
+    cache = {}
+    for f in range(FRAMES):
+        a, b = full.echoes(crossing, RADAR, f), cached.echoes(crossing, RADAR, f)
+        unmerged.echoes(crossing, RADAR, f)
+        h_a, h_b = carrier_channel(a), carrier_channel(b)
+        np.testing.assert_allclose(h_b, h_a, rtol=1e-6, atol=1e-6 * np.abs(h_a).max())
+        # each merged contribution is off by at most 2 pi MERGE_FRACTION of phase at any sample (delay
+        # and Doppler cells of MERGE_FRACTION of the resolutions, pi each), in both merges
+        po = cached.last_parts["po"]
+        total = np.sum(np.abs(unmerged.last_parts["po"].a), axis=-1).max()
+        bound = 2 * (2 * np.pi * MERGE_FRACTION) * total * np.sqrt(RADAR.tx_power)
+        assert np.abs(cube(b, cache) - cube(a)).max() <= bound, f"frame {f}"
+        assert po is not None
+
+
+def test_static_block_is_the_same_every_frame(crossing):
+    engine = PathEngine()
+    echoes = frames_of(engine, crossing)
+    key, count = echoes[0].static_key, echoes[0].static_count
+    assert key is not None and count > 0
+    for e in echoes[1:]:
+        assert e.static_key == key and e.static_count == count
+        np.testing.assert_array_equal(e.a[..., :count], echoes[0].a[..., :count])
+        np.testing.assert_array_equal(e.tau[..., :count], echoes[0].tau[..., :count])
+    assert np.all(echoes[0].doppler[..., :count] == 0), "a static scene seen from a static radar has no Doppler"
+    # a new pose is a new static scene
+    moved = engine.echoes(crossing, RADAR, 0, radar_pose=((0.0, 0.1, 0.0), (0.0, 0.0, 0.0)))
+    assert moved.static_key != key
+
+
+def test_resumed_frame_equals_uninterrupted(crossing):
+    """The echoes of a frame depend on the frame only, not on the frames simulated before."""
+    first = PathEngine()
+    frames_of(first, crossing)
+    again = PathEngine()
+    late = again.echoes(crossing, RADAR, FRAMES - 1)
+    np.testing.assert_array_equal(carrier_channel(late), carrier_channel(first.echoes(crossing, RADAR, FRAMES - 1)))
+
+
+def test_spheres_meet_segments():
+    """Segment-sphere test against its closed form: a unit sphere at (5, 0, 0)."""
+    s = Spheres(np.array([[5.0, 0.0, 0.0]]), np.array([1.0]))
+    o = np.zeros((5, 3))
+    k = np.array([[1, 0, 0], [1, 0, 0], [0, 1, 0], [1, 0.19, 0], [1, 0.21, 0]], float)
+    k /= np.linalg.norm(k, axis=-1, keepdims=True)
+    length = np.array([3.9, np.inf, np.inf, np.inf, np.inf])
+    # stops 0.1 m short; passes through; perpendicular; tangent angle asin(1/5) = 0.2014 rad
+    assert s.meet(o, k, length).tolist() == [False, True, False, True, False]
+    behind = Spheres(np.array([[-5.0, 0.0, 0.0]]), np.array([1.0]))
+    assert not behind.meet(o[:1], k[:1], np.array([np.inf]))[0]
