@@ -65,9 +65,10 @@ def cube(echoes, cache=None):
     return synthesize(echoes, RADAR, noise=False, static_cache=cache)
 
 
-def test_static_scene_without_merge_is_the_same_sum(crossing):
-    full = PathEngine(static_scene=False, po_merge=False)
-    cached = PathEngine(po_merge=False)
+@pytest.mark.parametrize("depth", [2, 3])
+def test_static_scene_without_merge_is_the_same_sum(crossing, depth):
+    full = PathEngine(static_scene=False, po_merge=False, max_depth=depth)
+    cached = PathEngine(po_merge=False, max_depth=depth)
     cache = {}
     blocked = new = 0
     for f, (a, b) in enumerate(zip(frames_of(full, crossing), frames_of(cached, crossing))):

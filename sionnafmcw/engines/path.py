@@ -329,8 +329,9 @@ class TracedPaths:
                            cat("shapes"), cat("primitives"), cat("vertices"), parts[0].sources, parts[0].targets)
 
     def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The segments source -> v_1 -> ... -> v_d -> target: starts and ends ``[P, D+1, 3]`` and
-        ``[P, D+1]`` bool, true for the ``d + 1`` segments of each path."""
+        """The segments source -> v_1 -> ... -> v_d -> target: starts and ends ``[P, D+1, 3]`` (after the
+        last interaction both at the target: zero length) and ``[P, D+1]`` bool, true for the
+        ``d + 1`` segments of each path."""
         num, depth, _ = self.vertices.shape
         n_int = self.num_interactions
         pts = np.empty((num, depth + 2, 3))
@@ -978,17 +979,8 @@ class PathEngine(Engine):
     @staticmethod
     def _polyline_directions(paths: TracedPaths):
         """Unit directions ``[P, D+1, 3]`` of the segments source -> v_1 -> ... -> v_d -> target (0 after the last)."""
-        num, depth, _ = paths.vertices.shape
-        n_int = paths.num_interactions
-        pts = np.empty((num, depth + 2, 3))
-        pts[:, 0] = paths.sources[paths.source]
-        pts[:, 1:depth + 1] = paths.vertices
-        tgt = paths.targets[paths.target]
-        for d in range(depth):
-            pad = n_int <= d
-            pts[pad, d + 1] = tgt[pad]
-        pts[:, depth + 1] = tgt
-        seg = np.diff(pts, axis=1)
+        starts, ends, _ = paths.segments()
+        seg = ends - starts
         norm = np.linalg.norm(seg, axis=-1, keepdims=True)
         return np.divide(seg, norm, out=np.zeros_like(seg), where=norm > 0)
 
