@@ -167,22 +167,19 @@ class Echoes:
         not (they are no longer a prefix). Labels that are the same for every element pair in
         every part (given as ``[num_contributions]``) stay a broadcast view.
         """
+        if not parts:
+            raise ValueError("Echoes.concatenate: no parts to concatenate")
         labels = None
-        if parts and all(p.labels is not None for p in parts):
+        if all(p.labels is not None for p in parts):
             labels = _concatenate_labels([p.labels for p in parts])
-        first = parts[0] if parts else None
-        a = np.concatenate([p.a for p in parts], axis=2)
-        tau = np.concatenate([p.tau for p in parts], axis=2)
-        doppler = np.concatenate([p.doppler for p in parts], axis=2)
-        static_count = first.static_count if first is not None else 0
-        static_key = first.static_key if first is not None else None
-        if not parts or not all(isinstance(p, Echoes) for p in parts) or len({p.a.shape[:2] for p in parts}) > 1:
-            return cls(a, tau, doppler, labels, static_count=static_count, static_key=static_key)
         # every part passed the checks of __post_init__ and so does their concatenation: not
         # checked again (a frame's echoes are ~1e5 contributions x element pairs)
         out = object.__new__(cls)
-        out.a, out.tau, out.doppler, out.labels = a, tau, doppler, labels
-        out.static_count, out.static_key = static_count, static_key
+        out.a = np.concatenate([p.a for p in parts], axis=2)
+        out.tau = np.concatenate([p.tau for p in parts], axis=2)
+        out.doppler = np.concatenate([p.doppler for p in parts], axis=2)
+        out.labels = labels
+        out.static_count, out.static_key = parts[0].static_count, parts[0].static_key
         return out
 
     def select(self, mask) -> "Echoes":

@@ -212,6 +212,7 @@ of PO per frame on two shared cores, a profile of one frame; ``benchmarks/circle
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field, replace
 
@@ -249,7 +250,7 @@ DUPLICATE_LENGTH_TOLERANCE = 0.01
 DUPLICATE_POINT_TOLERANCE = 0.5
 
 _SPECULAR_TYPES = (int(InteractionType.SPECULAR), int(InteractionType.REFRACTION))
-_STATIC_BLOCKS = 0   # static echo blocks built in this process (their static_key)
+_STATIC_BLOCKS = itertools.count()   # numbers the static echo blocks built in this process (their static_key)
 
 
 class PathEngineError(EngineError):
@@ -630,8 +631,8 @@ class PathEngine(Engine):
         figures["num_traced_paths"] = alive.num_paths
         figures["num_paths"] = (radar.num_tx * radar.num_rx if self.coherent else 1) * alive.num_paths
         if self.physical_optics:
-            po, removed_po, po_figures = self._po_echoes(animation, radar, frame, pose, velocities, wavelength,
-                                                         static, spheres, moving_ids)
+            po, removed_po, po_figures = self._po_echoes(animation, radar, pose, rigid, wavelength, static, spheres,
+                                                         moving_ids)
             figures.update(po_figures)
             pieces["po"] = [None if static is None or static.po is None else static.po.echoes, removed_po, po]
         self._last_pieces = pieces
@@ -736,10 +737,8 @@ class PathEngine(Engine):
         block = Echoes.empty(radar.num_tx, radar.num_rx) if not parts else \
             (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
         labels = block.labels if block.labels is not None else np.zeros(block.num_contributions, dtype=str)
-        global _STATIC_BLOCKS
-        _STATIC_BLOCKS += 1
         block = Echoes(block.a, block.tau, block.doppler, labels, static_count=block.num_contributions,
-                       static_key=("path-engine-static", id(self), _STATIC_BLOCKS))
+                       static_key=("path-engine-static", next(_STATIC_BLOCKS)))
         state.static = _StaticBlock(key, paths if paths.num_paths else None, traced, po, block,
                                     time.perf_counter() - t0)
         return state.static, state.static.seconds
@@ -785,20 +784,18 @@ class PathEngine(Engine):
                                    doppler_cell=MERGE_FRACTION / radar.cpi_duration, frequency=radar.fc,
                                    return_cells=return_cells)
 
-    def _po_echoes(self, animation: Animation, radar, frame: int, pose: RadarPose, velocities: dict,
-                   wavelength: float, static=None, spheres=None, moving_ids=frozenset()):
+    def _po_echoes(self, animation: Animation, radar, pose: RadarPose, rigid: dict, wavelength: float, static=None,
+                   spheres=None, moving_ids=frozenset()):
         """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
         reflections up to ``max_depth`` bounces (:mod:`sionnafmcw.engines.po_render`), every element
         pair near-field exact, merged per delay/Doppler cell of :data:`~.po_render.MERGE_FRACTION` of
-        the resolutions. With the static scene cached (``static``), only the frame's own renders
-        (what the moving objects change) and the blocked static samples (``removed``, opposite sign).
-        Returns ``(echoes, removed, figures)``."""
+        the resolutions; ``rigid``: name -> the frame's rigid velocity (m/s). With the static scene
+        cached (``static``), only the frame's own renders (what the moving objects change) and the
+        blocked static samples (``removed``, opposite sign). Returns ``(echoes, removed, figures)``."""
         from .po_render import reflect, render
 
         t0 = time.perf_counter()
         loaded = self._loaded
-        rigid = {name: np.asarray(animation.frame(frame).objects.get(name, np.zeros(3)), float)
-                 for name in loaded.scene.objects}
         objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
         depth = self._po_depth
         removed, num_removed = None, 0

@@ -1,9 +1,9 @@
 r"""The static scene once per radar pose: what the moving objects change, per frame, and nothing else.
 
 In an indoor animation most of the echo comes from surfaces that do not move (walls, floor,
-ceiling, furniture): the circle walk's PO render has some 1.4e5 of its 1.8e5 first-bounce samples
-and 1.8e5 of 1.8e5 second-bounce ones on the room, and most of Sionna's diffuse paths are room
-paths. With the radar at a fixed pose these are the same in every frame, except where a moving
+ceiling, furniture): on the circle walk most of the PO render's samples and of Sionna's diffuse
+paths are on the room (the engine's figures ``static_po_samples`` and ``static_paths`` against
+``po_samples`` and ``num_traced_paths``). With the radar at a fixed pose these are the same in every frame, except where a moving
 object is in their way. The path engine (``static_scene=True``) therefore splits every frame's
 echo into
 
@@ -185,15 +185,18 @@ class StaticPO:
     """The PO render of the static objects (moving ones hidden), its echoes merged, and what a frame needs.
 
     ``renders``: :class:`~sionnafmcw.engines.po_render.Render` per bounce; ``keep``: per bounce the
-    samples that carry PO (:meth:`~sionnafmcw.engines.po_render.Render.carries_po`); ``outgoing``:
-    per bounce but the last rendered, the reflected direction of every sample ``[P, 3]`` and the
-    index of its next-bounce sample (``-1``: none); ``cells``: per bounce the merge cell of every
+    samples that carry PO (:meth:`~sionnafmcw.engines.po_render.Render.carries_po`); ``incident``:
+    the first bounce's rays from the render origin, unit directions ``[P, 3]`` and lengths ``[P]``
+    (m); ``outgoing``: per bounce but the last rendered, the reflected direction of every sample
+    ``[P, 3]``, the index of its next-bounce sample (``-1``: none) and the length to it (``inf``:
+    none); the segments a frame re-checks, fixed per pose; ``cells``: per bounce the merge cell of every
     kept sample and the merged cells ``(tau, doppler, labels)`` (None without merging);
     ``echoes``: the merged static PO echoes of all bounces (None when empty).
     """
 
     renders: list
     keep: list
+    incident: tuple
     outgoing: list
     cells: list
     echoes: object
@@ -214,12 +217,19 @@ class StaticPO:
         while bounce.depth < depth and bounce.num_samples:
             bounce = reflect(loaded, bounce, objects, rotation, wavelength)
             renders.append(bounce)
+        d_first = renders[0].samples.position - renders[0].source
+        length_first = np.linalg.norm(d_first, axis=-1)
+        incident = (d_first / np.maximum(length_first, 1e-300)[:, None], length_first)
         outgoing = []
         for d in range(len(renders) - 1):
             k_out = renders[d].reflected()[1]
             child = np.full(renders[d].num_samples, -1, dtype=np.int64)
             child[renders[d + 1].parent] = np.arange(renders[d + 1].num_samples)
-            outgoing.append((k_out, child))
+            length = np.full(renders[d].num_samples, np.inf)
+            has = child >= 0
+            length[has] = np.linalg.norm(renders[d + 1].samples.position[child[has]]
+                                         - renders[d].samples.position[has], axis=-1)
+            outgoing.append((k_out, child, length))
         keep, cells, parts = [], [], []
         for b in renders:
             kept = b.carries_po()
@@ -237,7 +247,7 @@ class StaticPO:
                 cells.append((cell, tau_m, dop_m, lab_m))
                 parts.append(Echoes(a_m, tau_m, dop_m, lab_m))
         echoes = None if not parts else (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
-        return cls(renders, keep, outgoing, cells, echoes)
+        return cls(renders, keep, incident, outgoing, cells, echoes)
 
     @property
     def num_samples(self) -> int:
@@ -260,9 +270,7 @@ class StaticPO:
         first = self.renders[0]
         removed = [np.zeros(first.num_samples, dtype=bool)]
         if first.num_samples and moving:
-            d = first.samples.position - first.source
-            length = np.linalg.norm(d, axis=-1)
-            cand = np.flatnonzero(spheres.meet(first.source, d / length[:, None], length))
+            cand = np.flatnonzero(spheres.meet(first.source, *self.incident))
             removed[0][cand] = blocked_segments(loaded, first.source[cand], first.samples.position[cand], moving_ids)
         own = [render(loaded, centre, rotation, wavelength, {}, {}, objects=moving, samples_across=samples_across)] \
             if moving else []
@@ -270,14 +278,9 @@ class StaticPO:
         for d in range(1, depth):
             nxt = [reflect(loaded, b, objects, rotation, wavelength) for b in frontier if b.num_samples]
             if d < len(self.renders):
-                prev, (k_out, child) = self.renders[d - 1], self.outgoing[d - 1]
-                cached = self.renders[d]
-                gone = removed[d - 1][cached.parent]
+                prev, (k_out, child, length) = self.renders[d - 1], self.outgoing[d - 1]
+                gone = removed[d - 1][self.renders[d].parent]
                 if moving and prev.num_samples:
-                    length = np.full(prev.num_samples, np.inf)
-                    has = child >= 0
-                    length[has] = np.linalg.norm(cached.samples.position[child[has]] - prev.samples.position[has],
-                                                 axis=-1)
                     cand = np.flatnonzero(~removed[d - 1] & spheres.meet(prev.samples.position, k_out, length))
                     # the reflected rays that now end on a moving object: their cached next bounce goes,
                     # and they are rendered again (only those) on the moving object
