@@ -394,6 +394,21 @@ def oriented_normals(samples: SurfaceSamples, towards) -> np.ndarray:
     return samples.normal * side[:, None]
 
 
+def multiply_sinc(footprint, k: float, proj_t, proj_r) -> None:
+    r"""``footprint [M, N, P] *=`` :math:`\operatorname{sinc}(k(\mathbf s_t\cdot\mathbf e + \mathbf s_r\cdot\mathbf e)/2)`
+    for ``proj_t [M, P]``, ``proj_r [N, P]`` (the in-sample phase factor of one footprint edge),
+    in place: ``np.sinc(k (proj_t + proj_r) / (2 pi))`` operation for operation, without its
+    temporaries."""
+    x = np.add(proj_t[:, None], proj_r[None])
+    x *= k
+    x /= 2 * np.pi
+    x *= np.pi                                   # np.sinc: y = pi x, y = where(y, y, eps), sin(y) / y
+    x[x == 0] = np.finfo(x.dtype).eps
+    y = np.sin(x)
+    y /= x
+    footprint *= y
+
+
 def po_gains(samples: SurfaceSamples, tx_positions, rx_positions, wavelength: float, tx_gain=None, rx_gain=None,
              in_sample_phase: bool = True) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     r"""PO contributions ``(a, tau, doppler)``, each ``[M, N, P]``, of the samples (module docstring).
@@ -422,7 +437,7 @@ def po_gains(samples: SurfaceSamples, tx_positions, rx_positions, wavelength: fl
         for e in range(2):
             proj_t = _dot(geo.s_t, samples.edges[None, :, e])   # [M, P]
             proj_r = _dot(geo.s_r, samples.edges[None, :, e])   # [N, P]
-            footprint *= np.sinc(k * (proj_t[:, None] + proj_r[None]) / (2 * np.pi))  # np.sinc(x) = sin(pi x)/(pi x)
+            multiply_sinc(footprint, k, proj_t, proj_r)
     a = (1j * gamma / (4 * np.pi)) * np.sqrt(g_t[:, None] * g_r[None]) * obliquity * samples.area * footprint / (
         geo.r_t[:, None] * geo.r_r[None])
     return a, geo.delays(), geo.dopplers(samples.velocity, wavelength)
@@ -477,5 +492,5 @@ def monostatic_rcs(samples: SurfaceSamples, radar_point, wavelength: float, refe
 
 __all__ = ["ElementGeometry", "MAX_QUADRATIC_PHASE", "PhysicalOpticsError", "SurfaceSamples", "angular_grid_steps",
            "channel", "coherent_reflection", "element_gains", "element_positions", "footprint_edges",
-           "monostatic_rcs", "normal_incidence_reflection", "oriented_normals", "po_echoes", "po_gains",
+           "monostatic_rcs", "multiply_sinc", "normal_incidence_reflection", "oriented_normals", "po_echoes", "po_gains",
            "render_resolution", "render_samples"]

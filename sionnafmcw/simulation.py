@@ -8,8 +8,9 @@ echo block, the same every frame, is synthesised once per block and reused: ``st
 and the store receives the cube and the ground truth of every moving object: position
 (area-weighted centroid of its mesh), velocity (the manifest's) and radial velocity
 :math:`\\dot R` from the radar's phase centre (the centroid of the virtual array, positive
-receding). The synthesis of frame :math:`n` runs on a worker thread while the engine computes
-frame :math:`n + 1`; frames are written in order, each once its cube is complete. Memory is
+receding). The synthesis and the store write of frame :math:`n` run on one worker thread while
+the engine computes frame :math:`n + 1`; frames are written in order, each once its cube is
+complete (a signal stops the main thread; the write under way finishes first). Memory is
 bounded by one frame's echoes and one frame's synthesis, and checked against the memory
 available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
 valid and the same call resumes it (see :func:`simulate`).
@@ -286,10 +287,14 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             if bar is not None:
                 bar.update(1)
 
-        # frame n is synthesised on a worker thread while the engine computes frame n + 1 (numpy
-        # and finufft release the GIL); frames are written in order by this thread, each once its
-        # cube is complete, so the store and its crash safety are as without the overlap. When the
-        # engine stops (an interrupt, an error) frame n is still written: what was done is kept.
+        # frame n is synthesised and written on a worker thread while the engine computes frame
+        # n + 1 (numpy, finufft and the store release the GIL). One worker: frames are written in
+        # order, each once its cube is complete, so the store and its crash safety are as without
+        # the overlap; at most one frame waits (memory). When the engine stops (an interrupt, an
+        # error) frame n is still written: what was done is kept.
+        def finish(f, echoes):
+            write(f, synthesise(f, echoes))
+
         with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:
             pending = None
             try:
@@ -297,21 +302,19 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
                     echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
                     if pending is not None:
                         done, pending = pending, None
-                        write(done[0], done[1].result())
-                    pending = (f, pool.submit(synthesise, f, echoes))
+                        done.result()
+                    pending = pool.submit(finish, f, echoes)
                     del echoes
                 if pending is not None:
                     done, pending = pending, None
-                    write(done[0], done[1].result())
+                    done.result()
             except BaseException:
                 if pending is not None:
                     done, pending = pending, None
                     try:
-                        cube = done[1].result()
+                        done.result()
                     except BaseException:  # noqa: BLE001  (the first failure is the one to report)
-                        cube = None
-                    if cube is not None:
-                        write(done[0], cube)
+                        pass
                 raise
     except BaseException as exc:
         if is_interrupt(exc) or received() is not None:

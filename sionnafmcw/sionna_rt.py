@@ -283,6 +283,26 @@ def aligned_float(values) -> "mi.Float":
     return mi.Float(aligned)
 
 
+def array_backend():
+    """The Dr.Jit array namespace of the Mitsuba variant: ``drjit.cuda`` or ``drjit.llvm`` (their
+    plain, non-differentiable types: ``Float64``, ``UInt32``, ...), for kernels of sionnafmcw's own."""
+    import drjit.cuda
+    import drjit.llvm
+
+    return drjit.cuda if mi.variant().startswith("cuda") else drjit.llvm
+
+
+def aligned_float64(values, backend=None):
+    """``values`` as a Dr.Jit ``Float64`` of ``backend`` (default :func:`array_backend`) from a
+    64-byte aligned float64 copy (see :func:`aligned_float`: the alignment is compiled into kernels)."""
+    values = np.asarray(values, dtype=np.float64).ravel()
+    buffer = np.empty(values.size + 8, dtype=np.float64)
+    start = (-buffer.ctypes.data % 64) // buffer.itemsize
+    aligned = buffer[start:start + values.size]
+    aligned[:] = values
+    return (backend or array_backend()).Float64(aligned)
+
+
 def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tuple:
     """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` on a Sionna ``scene``.
 
@@ -350,6 +370,7 @@ __all__ = [
     "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
     "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
     "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
-    "VERIFIED_VERSIONS", "antenna_pattern_registry", "check_versions", "dr", "installed_versions", "load_scene_at",
+    "VERIFIED_VERSIONS", "aligned_float", "aligned_float64", "antenna_pattern_registry", "array_backend",
+    "cast_rays", "check_versions", "dr", "installed_versions", "load_scene_at",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
 ]

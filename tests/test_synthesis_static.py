@@ -14,7 +14,8 @@ import pytest
 
 import sionnafmcw.synthesis as synthesis
 from sionnafmcw import Echoes, RadarConfig, synthesize
-from sionnafmcw.synthesis import beat_direct, noise_error_budget, synthesis_accuracy, thermal_noise
+from sionnafmcw.synthesis import (STATIC_BUDGET_SHARE, beat_direct, noise_error_budget, synthesis_accuracy,
+                                  thermal_noise)
 
 FLOAT32_ROUNDING = 2.0 ** -24
 
@@ -49,10 +50,13 @@ def part(echoes, start, stop=None):
 
 
 def split_bound(echoes, radar, max_error=None):
-    """Error bound per sample of the cached cube: the static and the dynamic sum's bounds added."""
+    """Error bound per sample of the cached cube: the static and the dynamic sum's bounds added
+    (with a budget, split as synthesize splits it)."""
     k = echoes.static_count
-    return sum(synthesis_accuracy(p, radar, max_error=max_error).error_bound
-               for p in (part(echoes, 0, k), part(echoes, k)) if p.num_contributions)
+    shares = (None, None) if max_error is None else \
+        (STATIC_BUDGET_SHARE * max_error, (1 - STATIC_BUDGET_SHARE) * max_error)
+    return sum(synthesis_accuracy(p, radar, max_error=e).error_bound
+               for p, e in zip((part(echoes, 0, k), part(echoes, k)), shares) if p.num_contributions)
 
 
 @pytest.fixture
@@ -91,9 +95,9 @@ def test_cached_cube_meets_the_noise_budget_with_the_same_noise(radar, calls):
     echoes = frame(radar, room(radar), seed=3)
     budget = noise_error_budget(radar)
     cached = synthesize(echoes, radar, noise=True, rng=5, static_cache={})
-    # each part gets half the budget, so the sum stays within it
-    assert calls == [budget / 2, budget / 2]
-    assert split_bound(echoes, radar, max_error=budget / 2) <= budget * (1 + 1e-9)
+    # the static part gets a tenth of the budget, the per-frame part the rest: the sum stays within it
+    assert calls == pytest.approx([STATIC_BUDGET_SHARE * budget, (1 - STATIC_BUDGET_SHARE) * budget], rel=1e-12)
+    assert split_bound(echoes, radar, max_error=budget) <= budget * (1 + 1e-9)
     whole = synthesize(echoes, radar, noise=True, rng=5)
     noise = thermal_noise(cached.shape, radar, np.random.default_rng(5))  # what both drew after the sum
     direct = beat_direct(echoes, radar)

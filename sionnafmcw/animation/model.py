@@ -17,8 +17,10 @@ from .errors import AnimationError
 from .frame_xml import ParsedFrameXml, parse_frame_xml
 from .ply import read_ply_cached
 
-#: Parsed frame XMLs an :class:`Animation` keeps (the cache is emptied when it is full).
-FRAME_XML_CACHE_SIZE = 64
+#: Parsed frame XMLs an :class:`Animation` keeps (the cache is emptied when it is full): a few kB
+#: each, and more than the frames of one CPI sequence, so that the engines' passes over all frames
+#: (loading, material check) and the per-frame updates parse every frame once.
+FRAME_XML_CACHE_SIZE = 1024
 
 
 @dataclass(frozen=True)

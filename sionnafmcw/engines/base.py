@@ -58,9 +58,11 @@ class FrameStats:
     ``kernels_compiled``: those found neither in Dr.Jit's in-memory nor on-disk cache (so compiled
     by LLVM); ``new_kernel_hashes``: kernels this engine had not launched before (independent of
     the caches: the measure of recompilation); ``reloaded``: the scene was (re)loaded in this call.
-    ``figures`` holds the engine's own figures (the path engine's ``num_paths``,
-    ``num_traced_paths`` and ``num_duplicates``, the pixel engine's ``trace_seconds``,
-    ``num_hits``, ``num_contributions``), also readable as attributes (``stats.num_paths``).
+    ``figures`` holds ``geometry_seconds`` (writing the frame's meshes into the scene: Mitsuba's
+    parameter update, which rebuilds the ray-tracing acceleration structure) and the engine's own
+    figures (the path engine's ``num_paths``, ``num_traced_paths`` and ``num_duplicates``, the
+    pixel engine's ``trace_seconds``, ``num_hits``, ``num_contributions``), also readable as
+    attributes (``stats.num_paths``).
     """
 
     frame: int
@@ -172,11 +174,14 @@ class Engine(abc.ABC):
                 self._loaded = LoadedScene.load(scene, animation)
                 self._state, self._key = state, key
                 reloaded = True
+            t_geometry = time.perf_counter()
             if self._loaded.update_geometry(animation, frame):
                 self._geometry_changed()
+            t_geometry = time.perf_counter() - t_geometry
             echoes, figures = self._frame_echoes(animation, radar, frame, pose)
+        figures = {"geometry_seconds": t_geometry} | dict(figures)
         self.stats.append(FrameStats(frame, time.perf_counter() - t0, kernels.launched, kernels.compiled,
-                                     kernels.new, reloaded, dict(figures)))
+                                     kernels.new, reloaded, figures))
         return echoes
 
     def __call__(self, animation: Animation, radar, frame: int, radar_pose=None):

@@ -6,7 +6,8 @@ The echo of a frame has three parts (issue 11; each can be switched off for comp
   the lit surface is rendered from the array's phase centre (:mod:`sionnafmcw.engines.po_render`,
   the render shared with the pixel engine) and the PO integral of
   :mod:`sionnafmcw.physical_optics` is evaluated on its samples for every element pair, near-field
-  exact, with each material's complex reflection coefficient reduced to the coherent share
+  exact (in one Dr.Jit kernel over samples and pairs, :mod:`sionnafmcw.engines.po_kernel`, held to
+  the numpy reference :func:`~sionnafmcw.engines.po_render.chain_po_gains` to rounding), with each material's complex reflection coefficient reduced to the coherent share
   :math:`\sqrt{1 - S^2}\,\Gamma` (power :math:`(1 - S^2)|\Gamma|^2`). A flat plate then returns
   :math:`4\pi A^2/\lambda^2` in the far field and the mirror image close in, a faceted sphere
   :math:`\pi r^2` (smoothed shading normals), whatever the tessellation. Sionna's first-order
@@ -764,13 +765,12 @@ class PathEngine(Engine):
 
     @staticmethod
     def _po_contributions(bounce, radar, tx_w, rx_w, rot, wavelength: float):
-        """``(a, tau, doppler, labels)`` of a render's samples for every element pair (element gains included)."""
-        from .po_render import chain_po_gains
+        """``(a, tau, doppler, labels)`` of a render's samples for every element pair (element gains
+        included): :func:`~sionnafmcw.engines.po_kernel.element_pair_po`, the Dr.Jit kernel of
+        :func:`~sionnafmcw.engines.po_render.chain_po_gains`."""
+        from .po_kernel import element_pair_po
 
-        g_t = antenna_gain(radar.antenna_pattern, *direction_angles((bounce.first_point[None] - tx_w[:, None]) @ rot))
-        g_r = antenna_gain(radar.antenna_pattern, *direction_angles(
-            (bounce.samples.position[None] - rx_w[:, None]) @ rot))
-        a, tau, doppler = chain_po_gains(bounce, tx_w, rx_w, wavelength, g_t, g_r)
+        a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
         return a, tau, doppler, bounce.samples.labels
 
     def _po_merge(self, radar, a, tau, doppler, labels, return_cells: bool = False):

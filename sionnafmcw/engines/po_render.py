@@ -164,8 +164,8 @@ def shading_normals(vertices, faces, crease_angle: float = CREASE_ANGLE) -> np.n
     sign = np.where(cos < 0, -1.0, 1.0)
     use = np.abs(cos) >= np.cos(crease_angle)
     weight = np.where(use, area[neighbour], 0.0) * sign
-    acc = np.zeros((len(order), 3))
-    np.add.at(acc, own, weight[:, None] * n_f[neighbour])
+    contribution = weight[:, None] * n_f[neighbour]
+    acc = np.stack([np.bincount(own, contribution[:, c], len(order)) for c in range(3)], axis=-1)
     acc_norm = np.linalg.norm(acc, axis=-1)
     smooth = np.where(acc_norm[:, None] > 0, acc / np.maximum(acc_norm, 1e-300)[:, None], n_f[face_sorted])
     out = np.empty((len(order), 3))
@@ -196,7 +196,9 @@ def curvature_radius(vertices, faces, corner_normals, quantile: float = 0.02) ->
 @dataclass
 class SceneObject:
     """One object of the render: name, Mitsuba shape id (int), faces, world vertices, corner normals
-    ``[F, 3, 3]``, per-vertex velocity ``[V, 3]`` or None, rigid velocity ``[3]`` and material."""
+    ``[F, 3, 3]``, per-vertex velocity ``[V, 3]`` or None, rigid velocity ``[3]`` and material.
+    ``normal_rotation`` (3x3 or None): the corner normals are those of a reference mesh that this
+    one is a rigid motion of, still to be turned by it (:meth:`turned`: only the normals of hits)."""
 
     name: str
     shape_id: int
@@ -207,6 +209,12 @@ class SceneObject:
     velocity: np.ndarray
     material: Material
     curvature_radius: float
+    normal_rotation: np.ndarray | None = None
+
+    def turned(self, normals) -> np.ndarray:
+        """Normals ``[K, 3]`` interpolated from :attr:`corner_normals`, turned by ``normal_rotation``
+        (a rotation commutes with the interpolation and keeps unit length)."""
+        return normals if self.normal_rotation is None else normals @ self.normal_rotation.T
 
 
 #: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
@@ -253,8 +261,9 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
     for name, obj in loaded.scene.objects.items():
         faces, vertices = loaded.faces[name], loaded.vertices[name]
         key = (name, loaded.loaded_files.get(name))   # changes whenever the mesh is rewritten
+        turn = None
         if cache is not None and key in cache:
-            normals, rho = cache[key]
+            normals, rho, turn = cache[key]
         else:
             moved, ref = None, None
             if cache is not None and reference is not None:
@@ -265,18 +274,19 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
                     n_ref = shading_normals(v_ref, f_ref, crease_angle)
                     ref = cache[(_REFERENCE, name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref)
                 moved = rigid_motion(ref[2], ref[3], vertices, faces)
-            if moved is not None:  # the reference mesh moved rigidly (a body segment): turn its normals
-                normals, rho = ref[0] @ moved.T, ref[1]
+            if moved is not None:  # the reference mesh moved rigidly (a body segment): its normals, to be turned
+                normals, rho, turn = ref[0], ref[1], moved
             else:
                 normals = shading_normals(vertices, faces, crease_angle)
                 rho = curvature_radius(vertices, faces, normals)
             if cache is not None:
                 for old in [k for k in cache if k[0] == name]:
                     del cache[old]
-                cache[key] = (normals, rho)
+                cache[key] = (normals, rho, turn)
         field_v = loaded.vertex_velocity.get(name) if vertex_doppler else None
         v = np.asarray(velocities.get(name, np.zeros(3)), float)
-        out.append(SceneObject(name, int(obj.object_id), faces, vertices, normals, field_v, v, materials[name], rho))
+        out.append(SceneObject(name, int(obj.object_id), faces, vertices, normals, field_v, v, materials[name], rho,
+                               turn))
     return out
 
 
@@ -324,6 +334,10 @@ class Render:
     def select(self, keep) -> Render:
         """The samples where ``keep`` (``[P]`` bool or indices) holds, with everything a further bounce needs."""
         from dataclasses import replace
+
+        keep = np.asarray(keep)
+        if keep.dtype == bool and keep.shape == (self.num_samples,) and keep.all():
+            return self
 
         def pick(x):
             return None if x is None else x[keep]
@@ -403,8 +417,7 @@ def _hit_geometry(obj: SceneObject, triangle, bary):
     tri = obj.faces[triangle]
     w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
     position = interpolate(obj.vertices, tri, w)
-    cn = obj.corner_normals[triangle]
-    normal = unit(np.einsum("kc,kci->ki", w, cn))
+    normal = obj.turned(unit(np.einsum("kc,kci->ki", w, obj.corner_normals[triangle])))
     if obj.vertex_velocity is not None:
         velocity = interpolate(obj.vertex_velocity, tri, w)
     else:
@@ -439,10 +452,10 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     area = np.divide(distance ** 2 * solid, cos, out=np.zeros(num), where=cos > 1e-6)
     edges = footprint_edges(position, normal, source, step_az, step_el)
     gamma, s = _reflection(obj_index, objects, normal, direction, rotation, wavelength)
-    names = np.array([o.name for o in objects], dtype=object)
+    names = np.array([o.name for o in objects], dtype=str)
     return SurfaceSamples(position, normal, area, edges=edges, velocity=velocity, reflection=gamma,
                           scattering_coefficient=s, object_id=np.array([o.shape_id for o in objects])[obj_index],
-                          triangle=triangle, barycentric=bary, labels=names[obj_index].astype(str)), direction
+                          triangle=triangle, barycentric=bary, labels=names[obj_index]), direction
 
 
 def render(loaded, origin, rotation, wavelength: float, velocities: dict, materials: dict, *,
@@ -535,14 +548,18 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     # mirror map of this bounce: x -> (I - 2 n n^T) x + 2 n (n . p)
     reflect_lin = np.eye(3)[None] - 2 * n[idx, :, None] * n[idx, None, :]
     reflect_off = 2 * n[idx] * np.einsum("pi,pi->p", n[idx], s.position[idx])[:, None]
-    lin = np.einsum("pij,pjk->pik", reflect_lin, previous.image_linear[idx])
-    off = np.einsum("pij,pj->pi", reflect_lin, previous.image_offset[idx]) + reflect_off
+    if previous.depth == 1:   # the previous map is the identity
+        lin, off = reflect_lin, reflect_off
+    else:
+        lin = np.einsum("pij,pjk->pik", reflect_lin, previous.image_linear[idx])
+        off = np.einsum("pij,pj->pi", reflect_lin, previous.image_offset[idx]) + reflect_off
     source = np.einsum("pij,pj->pi", reflect_lin, previous.source[idx]) + reflect_off
     s_az = np.einsum("pij,pj->pi", reflect_lin, previous.step_az[idx])
     s_el = np.einsum("pij,pj->pi", reflect_lin, previous.step_el[idx])
     # the tube's solid angle: |step_az x step_el| (exact for the grid's pixels to first order)
     solid = np.linalg.norm(np.cross(previous.step_az[idx], previous.step_el[idx]), axis=-1)
-    obj_index = np.array([by_id[int(x)] for x in shape[idx]], dtype=np.int64)
+    ids = np.array(sorted(by_id), dtype=np.int64)
+    obj_index = np.array([by_id[int(i)] for i in ids], dtype=np.int64)[np.searchsorted(ids, shape[idx])]
     samples, direction = _samples(objects, obj_index, prim[idx], uv[idx], source, s_az, s_el, solid, rotation,
                                   wavelength)
     chain = previous.chain_reflection[idx] * np.sqrt(np.clip(1 - s.scattering_coefficient[idx] ** 2, 0, 1)) \
@@ -575,7 +592,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     + \mathbf v_d\cdot(\hat{\mathbf k}^n_{out,d} - \hat{\mathbf k}_{in,d})]/\lambda`, element gains
     ``tx_gain [M, P]`` towards the first hit, ``rx_gain [N, P]`` from the last.
     """
-    from ..physical_optics import po_gains
+    from ..physical_optics import multiply_sinc, po_gains
 
     s = bounce.samples
     tx = np.atleast_2d(np.asarray(tx_positions, float))
@@ -601,7 +618,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
         for e in range(2):
             proj_t = np.einsum("mpi,pi->mp", s_t, s.edges[:, e])
             proj_r = np.einsum("npi,pi->np", s_r, s.edges[:, e])
-            footprint *= np.sinc(k * (proj_t[:, None] + proj_r[None]) / (2 * np.pi))
+            multiply_sinc(footprint, k, proj_t, proj_r)
     g_t = np.ones((m, p)) if tx_gain is None else np.asarray(tx_gain, float)
     g_r = np.ones((n, p)) if rx_gain is None else np.asarray(rx_gain, float)
     a = (1j * gamma / (4 * np.pi)) * np.sqrt(g_t[:, None] * g_r[None]) * obliquity * s.area * footprint / (
@@ -644,7 +661,8 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     cell, at most :math:`\pi B\,\delta\tau` and :math:`\pi T_{CPI}\,\delta f` at the ends of a chirp
     and of the CPI (:math:`\pi/256` for cells of :data:`MERGE_FRACTION` = 1/256 of the range and
     velocity resolution).
-    Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``; with ``return_cells`` also the
+    Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``, the cells in the order of their
+    first contribution (so contributions that share no cell come back as they came); with ``return_cells`` also the
     cell of every contribution ``[P]`` (index into ``G``), so that contributions can later be
     taken out of their cell at the same :math:`\bar\tau` (:mod:`~sionnafmcw.engines.static_scene`).
     """
@@ -653,34 +671,58 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     if p == 0:
         out = (a, tau, doppler, np.asarray(labels))
         return (*out, np.zeros(0, dtype=np.int64)) if return_cells else out
-    names, lab = np.unique(np.asarray(labels).astype(str), return_inverse=True)
+    names, lab = label_codes(labels)
     i_tau = np.floor(tau[0, 0] / delay_cell).astype(np.int64)
     i_dop = np.floor(doppler[0, 0] / doppler_cell).astype(np.int64)
     # one int64 key per contribution (label, delay cell, Doppler cell): a 1-D unique is fast
     i_tau -= i_tau.min()
     i_dop -= i_dop.min()
     n_tau, n_dop = int(i_tau.max()) + 1, int(i_dop.max()) + 1
-    keys = (lab.reshape(-1).astype(np.int64) * n_tau + i_tau) * n_dop + i_dop
-    _, group, counts = np.unique(keys, return_inverse=True, return_counts=True)
-    group = group.reshape(-1)
+    keys = (lab.astype(np.int64) * n_tau + i_tau) * n_dop + i_dop
+    # cells numbered in the order of their first contribution
+    _, first, group, counts = np.unique(keys, return_index=True, return_inverse=True, return_counts=True)
+    order = np.argsort(first)
+    rank = np.empty_like(order)
+    rank[order] = np.arange(order.size)
+    group, counts, first = rank[group.reshape(-1)], counts[order], first[order]
     g = counts.size
     flat_a = a.reshape(m * n, p)
     flat_tau = np.asarray(tau).reshape(m * n, p)
     flat_dop = np.asarray(doppler).reshape(m * n, p)
-    out_a = np.empty((m * n, g), complex)
-    out_tau = np.empty((m * n, g))
-    out_dop = np.empty((m * n, g))
-    for k in range(m * n):
-        mean_tau = np.bincount(group, flat_tau[k], g) / counts
-        z = flat_a[k] * np.exp(-2j * np.pi * frequency * (flat_tau[k] - mean_tau[group]))
-        out_a[k] = np.bincount(group, z.real, g) + 1j * np.bincount(group, z.imag, g)
-        out_tau[k] = mean_tau
-        out_dop[k] = np.bincount(group, flat_dop[k], g) / counts
-    first = np.zeros(g, dtype=np.int64)
-    first[group[::-1]] = np.arange(p)[::-1]
-    out_labels = names[lab.reshape(-1)[first]]
+    # a contribution alone in its cell is its own merge (mean delay = its delay, phase factor 1):
+    # every cell starts as its first contribution (no copy when no cell is shared), and the shared
+    # cells are summed below
+    if g == p:
+        out_a, out_tau, out_dop = flat_a.copy(), flat_tau.copy(), flat_dop.copy()
+    else:
+        out_a = np.take(flat_a, first, axis=1)
+        out_tau = np.take(flat_tau, first, axis=1)
+        out_dop = np.take(flat_dop, first, axis=1)
+    members = np.flatnonzero(counts[group] > 1)
+    if members.size:
+        cells, cell = np.unique(group[members], return_inverse=True)
+        c = cells.size
+        cell_counts = counts[cells]
+        for k in range(m * n):
+            mean_tau = np.bincount(cell, flat_tau[k, members], c) / cell_counts
+            z = flat_a[k, members] * np.exp(-2j * np.pi * frequency * (flat_tau[k, members] - mean_tau[cell]))
+            out_a[k, cells] = np.bincount(cell, z.real, c) + 1j * np.bincount(cell, z.imag, c)
+            out_tau[k, cells] = mean_tau
+            out_dop[k, cells] = np.bincount(cell, flat_dop[k, members], c) / cell_counts
+    out_labels = names[lab[first]]
     out = (out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels)
     return (*out, group) if return_cells else out
+
+
+def label_codes(labels) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(labels, return_inverse=True)`` for ``[P]`` string labels, read run by run (the
+    labels of a render come in runs of one object, so only the runs' labels are sorted)."""
+    labels = np.asarray(labels).astype(str, copy=False).reshape(-1)
+    if labels.size == 0:
+        return np.zeros(0, dtype=labels.dtype), np.zeros(0, dtype=np.int64)
+    start = np.flatnonzero(np.concatenate([[True], labels[1:] != labels[:-1]]))
+    names, run_code = np.unique(labels[start], return_inverse=True)
+    return names, np.repeat(run_code.reshape(-1), np.diff(np.append(start, labels.size)))
 
 
 def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequency: float):
@@ -706,6 +748,6 @@ def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequen
 
 
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject",
-           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "merge_contributions",
+           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "label_codes", "merge_contributions",
            "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals",
            "take_out_of_cells"]

@@ -181,24 +181,34 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     for a, f in pairs:
         theta = f.sum(axis=0)
         keep = theta > 0
-        moving.append((a[keep], f[:, keep], theta[keep]))
+        moving.append((a, f, theta) if keep.all() else (a[keep], f[:, keep], theta[keep]))
     theta_max = max((float(t.max()) for _, _, t in moving if t.size), default=0.0)
+    powers = [{} for _ in moving]          # per channel: (i, e) -> phi_i^e / e!, and e^theta |a|
+
+    def power(c, i, e):
+        if (i, e) not in powers[c]:
+            powers[c][i, e] = moving[c][1][i] ** e / factorial(e)
+        return powers[c][i, e]
 
     def weight(term):  # sqrt(P_t) max_c sum_p |a_p| prod_i phi_i^e_i / e_i!
         if not any(term):
             return static_sum
         best = 0.0
-        for a, f, _ in moving:
-            w = a.copy()
+        for c, (a, _, _) in enumerate(moving):
+            w = a
             for i, e in enumerate(term):
                 if e:
-                    w = w * f[i] ** e / factorial(e)
+                    w = w * power(c, i, e)
             best = max(best, float(w.sum()))
         return root_pt * best
 
     def tail(d, factor=True):  # sqrt(P_t) max_c sum_p |a_p| [e^theta] theta^(d+1)/(d+1)!
-        return root_pt * max((float(np.sum(a * (np.exp(t) if factor else 1.0) * t ** (d + 1))) for a, _, t in moving),
-                             default=0.0) / factorial(d + 1)
+        best = 0.0
+        for c, (a, _, t) in enumerate(moving):
+            if factor and "growth" not in powers[c]:
+                powers[c]["growth"] = a * np.exp(t)
+            best = max(best, float(np.sum((powers[c]["growth"] if factor else a) * t ** (d + 1))))
+        return root_pt * best / factorial(d + 1)
 
     if max_error is None:
         order = taylor_order(theta_max, taylor_tol)

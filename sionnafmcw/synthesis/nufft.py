@@ -124,16 +124,23 @@ def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
             live = echoes.a[m, n] != 0
             if not np.any(live):
                 continue
+            if live.all():   # views, not copies
+                live = slice(None)
             a = echoes.a[m, n, live]
             nu = echoes.doppler[m, n, live] / radar.fc
             poly = PhasePolynomial.from_delay_doppler(echoes.tau[m, n, live], nu, slot[m], radar)
             poly = poly.shift_chirp_origin(grid.l0)
             residual = (poly.c - grid.eps1 * poly.b, poly.k_u - grid.eps2 * poly.b, poly.k_l)
             phases = 2 * np.pi * np.abs(np.stack(residual)) * np.asarray(grid.basis_max)[:, None]
-            phi0 = poly.phi0 - np.round(poly.phi0)
-            # shift A by whole cycles into [-1/2, 1/2): exp(j2pi*j*k') = exp(-j*pi*j*(Ns-1)) for k' = k-(Ns-1)/2
+            phi0 = 2 * np.pi * (poly.phi0 - np.round(poly.phi0))
+            # shift A by whole cycles into [-1/2, 1/2): exp(j2pi*j*k') = exp(-j*pi*j*(Ns-1)) for
+            # k' = k-(Ns-1)/2, i.e. (-1)^(j (Ns - 1)) for the whole number j
             wraps = np.round(poly.a)
-            strength = np.conj(a) * np.exp(2j * np.pi * phi0 - 1j * np.pi * wraps * (Ns - 1))
+            turn = np.empty(phi0.shape, dtype=complex)
+            turn.real, turn.imag = np.cos(phi0), np.sin(phi0)
+            if (Ns - 1) % 2:
+                turn[np.mod(wraps, 2) == 1] *= -1.0
+            strength = np.conj(a) * turn
             out.append(_Channel(m, n, 2 * np.pi * (poly.a - wraps), 2 * np.pi * poly.b, strength, residual,
                                 phases, np.abs(a)))
     return out
