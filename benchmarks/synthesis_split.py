@@ -25,37 +25,20 @@ from __future__ import annotations
 import argparse
 import sys
 import time
-from pathlib import Path
+
+import walk_frames
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--scene", default=None, help="existing circle_walk animation directory (default: build one)")
-    p.add_argument("--out", default="out/bench_synthesis_split")
-    p.add_argument("--frames", type=int, nargs="+", default=[2, 3, 4, 5])
-    p.add_argument("--repeats", type=int, default=3)
-    p.add_argument("--radar", default="walk-77ghz")
+    walk_frames.add_arguments(p, "out/bench_synthesis_split", [2, 3, 4, 5], 3)
     args = p.parse_args(argv)
-    if args.repeats < 1:
-        p.error("--repeats must be >= 1")
 
     from sionnafmcw import engines
-    from sionnafmcw.animation import load_animation
     from sionnafmcw.echoes import Echoes
-    from sionnafmcw.radar import RadarConfig
     from sionnafmcw.synthesis import beat_nufft, noise_error_budget, synthesis_accuracy
 
-    if args.scene:
-        scene = Path(args.scene)
-        if not (scene / "animation.json").is_file():
-            p.error(f"--scene {scene}: no animation.json there")
-    else:
-        from sionnafmcw.validation.common import build_scene
-        scene = build_scene("circle_walk", Path(args.out) / "scene")
-    anim = load_animation(scene)
-    radar = RadarConfig.resolve(args.radar)
-    if max(args.frames) >= anim.num_frames:
-        p.error(f"--frames: the scene has {anim.num_frames} frames")
+    anim, radar = walk_frames.load(p, args)
     engine = engines.create("path", track_kernels=False)
     dynamic = []
     for frame in args.frames:

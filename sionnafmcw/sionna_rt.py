@@ -275,12 +275,17 @@ def aligned_float(values) -> "mi.Float":
     kernel (``align 1`` vs ``align 64``): inputs with varying alignment would give the same
     ray cast a new kernel hash (a recompilation) from frame to frame.
     """
-    values = np.asarray(values, dtype=np.float32).ravel()
-    buffer = np.empty(values.size + 16, dtype=np.float32)
+    return mi.Float(_aligned_copy(values, np.float32))
+
+
+def _aligned_copy(values, dtype) -> np.ndarray:
+    """A flat copy of ``values`` as ``dtype`` whose first element is 64-byte aligned."""
+    values = np.asarray(values, dtype=dtype).ravel()
+    buffer = np.empty(values.size + 64 // np.dtype(dtype).itemsize, dtype=dtype)
     start = (-buffer.ctypes.data % 64) // buffer.itemsize
     aligned = buffer[start:start + values.size]
     aligned[:] = values
-    return mi.Float(aligned)
+    return aligned
 
 
 def array_backend():
@@ -295,12 +300,7 @@ def array_backend():
 def aligned_float64(values, backend=None):
     """``values`` as a Dr.Jit ``Float64`` of ``backend`` (default :func:`array_backend`) from a
     64-byte aligned float64 copy (see :func:`aligned_float`: the alignment is compiled into kernels)."""
-    values = np.asarray(values, dtype=np.float64).ravel()
-    buffer = np.empty(values.size + 8, dtype=np.float64)
-    start = (-buffer.ctypes.data % 64) // buffer.itemsize
-    aligned = buffer[start:start + values.size]
-    aligned[:] = values
-    return (backend or array_backend()).Float64(aligned)
+    return (backend or array_backend()).Float64(_aligned_copy(values, np.float64))
 
 
 def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tuple:
