@@ -292,7 +292,8 @@ def main(argv=None) -> int:
     for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
         if tree is not None:
             if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
-                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there (expected a checkout of this repository)")
+                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there "
+                        "(expected a checkout of this repository)")
             trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
     print(f"scene {scene} ({scene_seconds:.1f} s), {args.frames} frames, seeds {args.seeds}, "
           f"A = {json.dumps(methods['A'])} {args.tree_a or ''}, B = {json.dumps(methods['B'])} {args.tree_b or ''}",

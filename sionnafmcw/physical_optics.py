@@ -395,9 +395,10 @@ def oriented_normals(samples: SurfaceSamples, towards) -> np.ndarray:
 
 
 def multiply_sinc(footprint, k: float, proj_t, proj_r) -> None:
-    r"""``footprint [M, N, P] *=`` :math:`\operatorname{sinc}(k(\mathbf s_t\cdot\mathbf e + \mathbf s_r\cdot\mathbf e)/2)`
-    for ``proj_t [M, P]``, ``proj_r [N, P]`` (the in-sample phase factor of one footprint edge),
-    in place: ``np.sinc(k (proj_t + proj_r) / (2 pi))`` operation for operation, without its
+    r"""``footprint [M, N, P] *=``
+    :math:`\operatorname{sinc}(k(\mathbf s_t\cdot\mathbf e + \mathbf s_r\cdot\mathbf e)/2)` for
+    ``proj_t [M, P]``, ``proj_r [N, P]`` (the in-sample phase factor of one footprint edge), in
+    place: ``np.sinc(k (proj_t + proj_r) / (2 pi))`` operation for operation, without its
     temporaries."""
     x = np.add(proj_t[:, None], proj_r[None])
     x *= k
@@ -492,5 +493,5 @@ def monostatic_rcs(samples: SurfaceSamples, radar_point, wavelength: float, refe
 
 __all__ = ["ElementGeometry", "MAX_QUADRATIC_PHASE", "PhysicalOpticsError", "SurfaceSamples", "angular_grid_steps",
            "channel", "coherent_reflection", "element_gains", "element_positions", "footprint_edges",
-           "monostatic_rcs", "multiply_sinc", "normal_incidence_reflection", "oriented_normals", "po_echoes", "po_gains",
-           "render_resolution", "render_samples"]
+           "monostatic_rcs", "multiply_sinc", "normal_incidence_reflection", "oriented_normals", "po_echoes",
+           "po_gains", "render_resolution", "render_samples"]

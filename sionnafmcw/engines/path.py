@@ -6,8 +6,9 @@ The echo of a frame has three parts (issue 11; each can be switched off for comp
   the lit surface is rendered from the array's phase centre (:mod:`sionnafmcw.engines.po_render`,
   the render shared with the pixel engine) and the PO integral of
   :mod:`sionnafmcw.physical_optics` is evaluated on its samples for every element pair, near-field
-  exact (in one Dr.Jit kernel over samples and pairs, :mod:`sionnafmcw.engines.po_kernel`, held to
-  the numpy reference :func:`~sionnafmcw.engines.po_render.chain_po_gains` to rounding), with each material's complex reflection coefficient reduced to the coherent share
+  exact (in Dr.Jit kernels over samples and pairs, :mod:`sionnafmcw.engines.po_kernel`, held to
+  the numpy reference :func:`~sionnafmcw.engines.po_render.chain_po_gains` to rounding), with
+  each material's complex reflection coefficient reduced to the coherent share
   :math:`\sqrt{1 - S^2}\,\Gamma` (power :math:`(1 - S^2)|\Gamma|^2`). A flat plate then returns
   :math:`4\pi A^2/\lambda^2` in the far field and the mirror image close in, a faceted sphere
   :math:`\pi r^2` (smoothed shading normals), whatever the tessellation. Sionna's first-order

@@ -75,9 +75,10 @@ def _sinc_half(x):
 
 
 #: Samples per kernel launch: the buffers of every launch then fall into the same few size classes,
-#: which Dr.Jit's allocation cache reuses from call to call (measured, 20 circle-walk frames through
-#: ``simulate``: peak RSS 1451 MiB with chunks of 65536, 1405 MiB with 16384, 1361 MiB with the numpy
-#: reference; the kernel as fast: ``benchmarks/po_kernel.py``).
+#: which Dr.Jit's allocation cache reuses from call to call (a one-off measurement, not a repo
+#: script: 20 circle-walk frames through ``simulate`` peaked at 1451 MiB with chunks of 65536,
+#: 1405 MiB with 16384, 1361 MiB with the numpy reference; the kernel as fast either way:
+#: ``benchmarks/po_kernel.py``).
 CHUNK = 1 << 14
 
 

@@ -662,8 +662,8 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     and of the CPI (:math:`\pi/256` for cells of :data:`MERGE_FRACTION` = 1/256 of the range and
     velocity resolution).
     Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``, the cells in the order of their
-    first contribution (so contributions that share no cell come back as they came); with ``return_cells`` also the
-    cell of every contribution ``[P]`` (index into ``G``), so that contributions can later be
+    first contribution (contributions that share no cell come back in their order); with
+    ``return_cells`` also the cell of every contribution ``[P]`` (index into ``G``), so that contributions can later be
     taken out of their cell at the same :math:`\bar\tau` (:mod:`~sionnafmcw.engines.static_scene`).
     """
     a = np.asarray(a)
@@ -690,8 +690,8 @@ def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell
     flat_tau = np.asarray(tau).reshape(m * n, p)
     flat_dop = np.asarray(doppler).reshape(m * n, p)
     # a contribution alone in its cell is its own merge (mean delay = its delay, phase factor 1):
-    # every cell starts as its first contribution (no copy when no cell is shared), and the shared
-    # cells are summed below
+    # every cell starts as its first contribution (one plain copy when no cell is shared, no
+    # gather), and the shared cells are summed below
     if g == p:
         out_a, out_tau, out_dop = flat_a.copy(), flat_tau.copy(), flat_dop.copy()
     else:
@@ -748,6 +748,6 @@ def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequen
 
 
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject",
-           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "label_codes", "merge_contributions",
-           "object_box", "radio_material", "reflect", "render", "rigid_motion", "scene_objects", "shading_normals",
-           "take_out_of_cells"]
+           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "label_codes",
+           "merge_contributions", "object_box", "radio_material", "reflect", "render", "rigid_motion",
+           "scene_objects", "shading_normals", "take_out_of_cells"]

@@ -3,9 +3,9 @@ r"""The static scene once per radar pose: what the moving objects change, per fr
 In an indoor animation most of the echo comes from surfaces that do not move (walls, floor,
 ceiling, furniture): on the circle walk most of the PO render's samples and of Sionna's diffuse
 paths are on the room (the engine's figures ``static_po_samples`` and ``static_paths`` against
-``po_samples`` and ``num_traced_paths``). With the radar at a fixed pose these are the same in every frame, except where a moving
-object is in their way. The path engine (``static_scene=True``) therefore splits every frame's
-echo into
+``po_samples`` and ``num_traced_paths``). With the radar at a fixed pose these are the same in
+every frame, except where a moving object is in their way. The path engine
+(``static_scene=True``) therefore splits every frame's echo into
 
 * a **static block**: every path and PO chain that touches only static objects, traced and
   rendered once per radar pose with the moving objects taken out of the scene (:func:`hidden`),

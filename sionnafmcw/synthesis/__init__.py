@@ -162,5 +162,5 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
     return static + dynamic
 
 
-__all__ = ["METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "SynthesisAccuracy", "beat_direct", "beat_nufft", "noise_error_budget",
-           "synthesis_accuracy", "synthesize", "thermal_noise"]
+__all__ = ["METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "SynthesisAccuracy", "beat_direct", "beat_nufft",
+           "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]

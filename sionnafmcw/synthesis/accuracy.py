@@ -183,7 +183,8 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
         keep = theta > 0
         moving.append((a, f, theta) if keep.all() else (a[keep], f[:, keep], theta[keep]))
     theta_max = max((float(t.max()) for _, _, t in moving if t.size), default=0.0)
-    powers = [{} for _ in moving]          # per channel: (i, e) -> phi_i^e / e!, and e^theta |a|
+    powers = [{} for _ in moving]          # per channel: (i, e) -> phi_i^e / e!
+    growth = [None] * len(moving)          # per channel: |a| e^theta
 
     def power(c, i, e):
         if (i, e) not in powers[c]:
@@ -205,9 +206,9 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     def tail(d, factor=True):  # sqrt(P_t) max_c sum_p |a_p| [e^theta] theta^(d+1)/(d+1)!
         best = 0.0
         for c, (a, _, t) in enumerate(moving):
-            if factor and "growth" not in powers[c]:
-                powers[c]["growth"] = a * np.exp(t)
-            best = max(best, float(np.sum((powers[c]["growth"] if factor else a) * t ** (d + 1))))
+            if factor and growth[c] is None:
+                growth[c] = a * np.exp(t)
+            best = max(best, float(np.sum((growth[c] if factor else a) * t ** (d + 1))))
         return root_pt * best / factorial(d + 1)
 
     if max_error is None:
