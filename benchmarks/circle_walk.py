@@ -66,6 +66,20 @@ time B/A 0.745 / 0.731 / 0.649 (seeds 1 / 2 / 3), mean 0.706; peak memory B/A 1.
 0.485 / 0.522 / 0.459 m/s for both. Kernel cache: first frame 4.4 s cold (26 kernels compiled),
 3.0 s warm (1). ``geometry`` (new figure: Mitsuba's parameter update, which rebuilds the BVH of
 the 191k-triangle body) and Sionna's ``trace`` are 0.11 s per frame each: 22.6 s of the 88.4 s.
+
+The second-order in-sample phase of the PO samples (``physical_optics.footprint_factor``: range
+curvature and the surface's shape operator; the samples' size unchanged), against the code
+before it (a ``git worktree`` of that commit), same command without ``--cold``, on a day when
+the same machine ran the code before in 120 s instead of 125 s::
+
+    run      total s s/frame first s steady engine s synth+st adapt geometry    po static trace e_velo peak MiB
+    A mean     119.9    1.20     4.7   1.06    110.7      9.2   3.5     14.1  64.6    3.3  16.3  0.489     1624
+    B mean     129.1    1.29     4.5   1.16    121.0      8.1   3.7     14.1  75.3    3.2  16.6  0.427     1636
+
+time B/A 1.078 / 1.075 / 1.075 (mean 1.076); peak memory B/A 1.007; e_velo 0.485 / 0.522 / 0.459
+(A) against 0.414 / 0.450 / 0.418 m/s (B), 0.04-0.07 m/s lower on every seed. The PO stage costs
+0.11 s per frame more: the shape operator of every hit and the factor's three sincos per
+element pair and sample.
 """
 
 from __future__ import annotations

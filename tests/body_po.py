@@ -43,8 +43,8 @@ import mesh_render
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.diffuse import lambertian_gains
 from sionnafmcw.materials import skin_properties
-from sionnafmcw.physical_optics import (angular_grid_steps, monostatic_rcs, normal_incidence_reflection,
-                                        render_resolution, render_samples)
+from sionnafmcw.physical_optics import (angular_grid_steps, interpolated_normals, monostatic_rcs,
+                                        normal_incidence_reflection, render_resolution, render_samples)
 from sionnafmcw.scenes.body import SEGMENTS, WalkingPerson
 
 FREQUENCY = 77e9
@@ -118,7 +118,7 @@ class BodyRCS:
 
 def render_body(vertices, faces, normals, radar, step, fields):
     """:class:`SurfaceSamples` of the body seen from ``radar`` on a grid of ``step`` (rad) covering it,
-    smooth normals. The body must lie towards +x of the radar (azimuths within +-pi/2)."""
+    smooth normals with their shape operator. The body must lie towards +x of the radar (azimuths within +-pi/2)."""
     rel = vertices - radar
     az = np.arctan2(rel[:, 1], rel[:, 0])
     el = np.arctan2(rel[:, 2], np.hypot(rel[:, 0], rel[:, 1]))
@@ -128,12 +128,11 @@ def render_body(vertices, faces, normals, radar, step, fields):
     hit, t, tri, bary, d = cast_chunked(vertices, faces, radar, azg, elg)
     f = faces[tri[hit]]
     b = bary[hit]
-    n = (1 - b[:, :1] - b[:, 1:]) * normals[f[:, 0]] + b[:, :1] * normals[f[:, 1]] + b[:, 1:] * normals[f[:, 2]]
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    n, curvature = interpolated_normals(vertices[f], normals[f], b)
     dirs = d[hit]
     step_az, step_el = angular_grid_steps(dirs, step, step)
     return render_samples(radar, dirs, t[hit], n, mesh_render.solid_angles(elg.ravel()[hit], step),
-                                      step_az, step_el, triangle=tri[hit], barycentric=b, **fields)
+                          step_az, step_el, triangle=tri[hit], barycentric=b, curvature=curvature, **fields)
 
 
 def pixel_step(person: WalkingPerson, distance: float) -> float:
@@ -144,10 +143,11 @@ def pixel_step(person: WalkingPerson, distance: float) -> float:
     return render_resolution(person.height, distance, WAVELENGTH, curvature_radius=rho)
 
 
-def body_rcs(person: WalkingPerson, phase: float, aspect_deg: float, distance: float, radar_height: float = 1.0,
-             rms_height: float = SKIN_RMS_ROUGHNESS, step: float | None = None, mesh=None) -> BodyRCS:
-    """Monostatic RCS of ``person`` at gait ``phase`` seen from ``distance`` (m, horizontal, from the body
-    axis) at ``aspect_deg`` and ``radar_height`` (m): PO coherent share + expected diffuse share."""
+def body_look(person: WalkingPerson, phase: float, aspect_deg: float, distance: float, radar_height: float = 1.0,
+              rms_height: float = SKIN_RMS_ROUGHNESS, step: float | None = None, mesh=None):
+    """The render samples of ``person`` at gait ``phase`` seen from ``distance`` (m, horizontal, from the
+    body axis) at ``aspect_deg`` and ``radar_height`` (m), with the radar point and the RCS reference
+    point (the body axis at the radar's height): ``(samples, radar, reference)``."""
     v, f, n = body_frame_mesh(person, phase) if mesh is None else mesh
     # turn the body by -(aspect + pi) about z: the radar at (d cos a, d sin a) goes to (-d, 0), looking along +x
     a = math.radians(aspect_deg) + math.pi
@@ -159,7 +159,15 @@ def body_rcs(person: WalkingPerson, phase: float, aspect_deg: float, distance: f
     gamma = skin_reflection()
     s = scattering_coefficient(rms_height)
     samples = render_body(v, f, n, radar, step, {"reflection": gamma, "scattering_coefficient": s})
-    reference = np.array([0.0, 0.0, radar_height])
+    return samples, radar, np.array([0.0, 0.0, radar_height])
+
+
+def body_rcs(person: WalkingPerson, phase: float, aspect_deg: float, distance: float, radar_height: float = 1.0,
+             rms_height: float = SKIN_RMS_ROUGHNESS, step: float | None = None, mesh=None) -> BodyRCS:
+    """Monostatic RCS of ``person`` at gait ``phase`` seen from ``distance`` (m, horizontal, from the body
+    axis) at ``aspect_deg`` and ``radar_height`` (m): PO coherent share + expected diffuse share."""
+    step = pixel_step(person, distance) if step is None else step
+    samples, radar, reference = body_look(person, phase, aspect_deg, distance, radar_height, rms_height, step, mesh)
     po = monostatic_rcs(samples, radar, WAVELENGTH, reference)
     amp, _, _ = lambertian_gains(samples, radar[None], radar[None], WAVELENGTH)
     r = np.linalg.norm(radar - reference)

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from sionnafmcw.physical_optics import angular_grid_steps, render_samples
+from sionnafmcw.physical_optics import angular_grid_steps, interpolated_normals, render_samples
 
 
 def grid(centre_az, centre_el, half_width, step):
@@ -97,7 +97,7 @@ def render(vertices, faces, origin, target, half_width, step, smooth_normals=Fal
     ``fields`` (per-triangle arrays ``[F]`` or per-mesh scalars) go to the samples: ``velocity``,
     ``reflection``, ``scattering_coefficient``, ``object_id``. ``smooth_normals``: the
     barycentric interpolation of :func:`vertex_normals` (Mitsuba's shading normal) instead of the
-    facet normal.
+    facet normal, with its shape operator (``curvature``, :func:`~sionnafmcw.physical_optics.interpolated_normals`).
     """
     origin = np.asarray(origin, float)
     dirn = np.asarray(target, float) - origin
@@ -111,14 +111,14 @@ def render(vertices, faces, origin, target, half_width, step, smooth_normals=Fal
     normal /= np.linalg.norm(normal, axis=1, keepdims=True)
     if smooth_normals:
         vn = vertex_normals(v, faces)
-        b = bary[hit]
-        normal = (1 - b[:, :1] - b[:, 1:]) * vn[f[:, 0]] + b[:, :1] * vn[f[:, 1]] + b[:, 1:] * vn[f[:, 2]]
-        normal /= np.linalg.norm(normal, axis=1, keepdims=True)
+        normal, curvature = interpolated_normals(v[f], vn[f], bary[hit])
     dirs = d[hit]
     step_az, step_el = angular_grid_steps(dirs, step, step)
     extra = {}
     for name, value in fields.items():
         value = np.asarray(value)
         extra[name] = value[tri[hit]] if value.ndim >= 1 and value.shape[0] == len(faces) else value
+    if smooth_normals:
+        extra["curvature"] = curvature
     return render_samples(origin, dirs, t[hit], normal, solid_angles(el.ravel()[hit], step), step_az, step_el,
                           triangle=tri[hit], barycentric=bary[hit], **extra)

@@ -61,11 +61,27 @@ def reference(bounce, tx, rx, rot, pattern, in_sample_phase=True):
     return chain_po_gains(bounce, tx, rx, LAMBDA, g_t, g_r, in_sample_phase)
 
 
+def curved(bounce, seed=0):
+    """``bounce`` with a shape operator on every sample (the corner reflectors and walls are flat, K = 0):
+    symmetric, on the tangent plane, radii of curvature of 2-20 cm of either sign, as on a body."""
+    from dataclasses import replace
+
+    rng = np.random.default_rng(seed)
+    n = bounce.samples.normal
+    proj = np.eye(3)[None] - n[:, :, None] * n[:, None, :]
+    k = rng.normal(size=(bounce.num_samples, 3, 3)) * rng.uniform(5.0, 50.0, (bounce.num_samples, 1, 1))
+    k = proj @ (0.5 * (k + k.transpose(0, 2, 1))) @ proj
+    return replace(bounce, samples=replace(bounce.samples, curvature=k))
+
+
 @pytest.mark.parametrize("pattern", ["tr38901", "iso"])
 @pytest.mark.parametrize("in_sample_phase", [True, False])
-def test_kernel_equals_the_numpy_reference(renders, pattern, in_sample_phase):
+@pytest.mark.parametrize("shape", ["as rendered", "curved"])
+def test_kernel_equals_the_numpy_reference(renders, pattern, in_sample_phase, shape):
     bounces, tx, rx, rot = renders
     for bounce in bounces:
+        if shape == "curved":
+            bounce = curved(bounce, bounce.depth)
         a0, tau0, f0 = reference(bounce, tx, rx, rot, pattern, in_sample_phase)
         a1, tau1, f1 = element_pair_po(bounce, tx, rx, rot, LAMBDA, pattern, in_sample_phase)
         assert a1.shape == tau1.shape == f1.shape == (RADAR.num_tx, RADAR.num_rx, bounce.num_samples)

@@ -6,21 +6,24 @@ bounce sample by sample and element pair by element pair, in numpy: about forty 
 ``[M, N, P]`` arrays, on one core. :func:`element_pair_po` evaluates the same expressions,
 including the element gains of :func:`~sionnafmcw.antenna.antenna_gain` towards the first and
 from the last hit, in two Dr.Jit kernels per chunk of samples, on every core of the Mitsuba
-variant's backend (LLVM on the CPU, CUDA on a GPU). For triple
-For triple
-:math:`(m, n, p)`, with :math:`\mathbf t'_m` the image of Tx element :math:`m` through the
-mirror map of the sample's previous bounces (:math:`\mathbf t_m` itself on bounce 1),
+variant's backend (LLVM on the CPU, CUDA on a GPU). For triple :math:`(m, n, p)`, with
+:math:`\mathbf t'_m` the image of Tx element :math:`m` through the mirror map of the sample's
+previous bounces (:math:`\mathbf t_m` itself on bounce 1),
 :math:`\hat{\mathbf s}_t = (\mathbf p - \mathbf t'_m)/r_t`, :math:`\hat{\mathbf s}_r = (\mathbf p - \mathbf r_n)/r_r`
 and :math:`\hat{\mathbf n}` the normal turned to the incident side:
 
 .. math::
     a_{mnp} = \frac{j\,\Gamma_p}{4\pi}\sqrt{G_t(\mathbf q_p - \mathbf t_m)\,G_r(\mathbf p - \mathbf r_n)}\;
               \max\Bigl(0, -\hat{\mathbf n}\cdot\frac{\hat{\mathbf s}_t + \hat{\mathbf s}_r}{2}\Bigr)\,
-              \frac{\Delta A\,\operatorname{sinc}\frac{k\,\mathbf g\cdot\mathbf e_1}{2}\,
-              \operatorname{sinc}\frac{k\,\mathbf g\cdot\mathbf e_2}{2}}{r_t r_r},\qquad
+              \frac{\Delta A\,F_{mnp}}{r_t r_r},\qquad
     \tau_{mnp} = \frac{r_t + r_r}{c},
 
-:math:`\mathbf g = \hat{\mathbf s}_t + \hat{\mathbf s}_r`, :math:`\mathbf q_p` the first hit of
+:math:`F` the in-sample factor of :func:`~sionnafmcw.physical_optics.footprint_factor` (the linear
+phase :math:`k\,\mathbf g\cdot\mathbf e_i`, :math:`\mathbf g = \hat{\mathbf s}_t + \hat{\mathbf s}_r`,
+and the quadratic :math:`h_{ij} = (\mathbf e_i\cdot\mathbf e_j - (\hat{\mathbf s}_t\cdot\mathbf e_i)
+(\hat{\mathbf s}_t\cdot\mathbf e_j))/r_t + (\dots)/r_r
++ (\cos\theta_t + \cos\theta_r)\,\mathbf e_i^T\mathbf K\mathbf e_j` of the footprint edges
+:math:`\mathbf e_i` and the shape operator :math:`\mathbf K`), :math:`\mathbf q_p` the first hit of
 the sample's ray (:math:`\mathbf p` on bounce 1), :math:`\Gamma_p` the chain's coherent
 reflection; Doppler :math:`-\mathbf v\cdot(\hat{\mathbf s}_t + \hat{\mathbf s}_r)/\lambda` on
 bounce 1 and :math:`[\mathbf v_1\cdot(\hat{\mathbf k}_{out,1} - \hat{\mathbf k}^m_{in,1})
@@ -30,12 +33,13 @@ bounce 2 on (the derivations are in :mod:`sionnafmcw.physical_optics` and
 ``tests/test_po_kernel.py`` holds the kernel to them within rounding (:math:`10^{-12}` of the
 largest contribution) on renders of real scenes, bounces 1 to 3, both patterns.
 
-Per-sample inputs (normals, reflection, areas, footprint edges, velocities, mirror maps) are
-prepared in numpy as ``[P]`` columns; everything per element happens in the kernels. The first
-kernel computes, per Tx element and per Rx element, what depends on that element only (distance,
-obliquity term, footprint projections, Doppler share, amplitude gain: :math:`M + N` element
-sides instead of :math:`MN` pairs for the transcendental functions); the second combines them per
-pair with the two sincs. Each lane handles one sample (no index arithmetic, no gathers). Every
+Per-sample inputs (normals, reflection, areas, footprint edges with their Gram matrix and
+:math:`\mathbf e_i^T\mathbf K\mathbf e_j`, velocities, mirror maps) are prepared in numpy as ``[P]``
+columns; everything per element happens in the kernels. The first kernel computes, per Tx element
+and per Rx element, what depends on that element only (distance, obliquity term, footprint
+projections and range-curvature terms, Doppler share, amplitude gain: :math:`M + N` element sides
+instead of :math:`MN` pairs for the transcendental functions); the second combines them per pair
+with the footprint factor. Each lane handles one sample (no index arithmetic, no gathers). Every
 scalar that changes between calls (the sizes, the pose, the wavelength) enters as an opaque
 variable and every input array as a 64-byte aligned copy
 (:func:`~sionnafmcw.sionna_rt.aligned_float64`), so the kernel is compiled once per
@@ -68,10 +72,20 @@ def _gain(pattern: str, x, y, z):
     return dr.exp2(a_db * float(np.log2(10.0) / 10.0))
 
 
-def _sinc_half(x):
-    """:math:`\\sin(x/2)/(x/2)` (1 at 0), Dr.Jit."""
-    y = 0.5 * x
-    return dr.select(y == 0, 1.0, dr.sin(y) / dr.select(y == 0, 1.0, y))
+def _sinc_and_derivatives(y):
+    """:math:`S(y) = \\sin y/y`, :math:`S'`, :math:`S''` in Dr.Jit, as
+    :func:`~sionnafmcw.physical_optics.sinc_and_derivatives` (its series below :math:`|y| = 0.05`)."""
+    small = dr.abs(y) < 0.05
+    safe = dr.select(small, 1.0, y)
+    sin, cos = dr.sincos(safe)
+    s0 = sin / safe
+    s1 = (cos - s0) / safe
+    s2 = -s0 - 2.0 * s1 / safe
+    y2 = y * y
+    s0 = dr.select(small, 1.0 - y2 / 6.0 * (1.0 - y2 / 20.0 * (1.0 - y2 / 42.0 * (1.0 - y2 / 72.0))), s0)
+    s1 = dr.select(small, -y / 3.0 * (1.0 - y2 / 10.0 * (1.0 - y2 / 28.0 * (1.0 - y2 / 54.0))), s1)
+    s2 = dr.select(small, -1.0 / 3.0 + y2 / 10.0 * (1.0 - y2 * (5.0 / 84.0) * (1.0 - y2 * (14.0 / 540.0))), s2)
+    return s0, s1, s2
 
 
 #: Samples per kernel launch: the buffers of every launch then fall into the same few size classes,
@@ -106,16 +120,26 @@ def element_pair_po(bounce, tx_positions, rx_positions, rotation, wavelength: fl
         return a, tau, doppler
     # per sample, numpy: the normal turned to the incident side, the chain's reflection and area
     if bounce.depth == 1:
-        normal = oriented_normals(s, np.concatenate([tx, rx]).mean(axis=0))
+        normal, side = oriented_normals(s, np.concatenate([tx, rx]).mean(axis=0), return_side=True)
         gamma = coherent_reflection(s.reflection, s.scattering_coefficient)
     else:
-        normal = s.normal * np.where(np.einsum("pi,pi->p", s.normal, bounce.direction) > 0, -1.0, 1.0)[:, None]
+        side = np.where(np.einsum("pi,pi->p", s.normal, bounce.direction) > 0, -1.0, 1.0)
+        normal = s.normal * side[:, None]
         gamma = bounce.chain_reflection * np.sqrt(np.clip(1 - s.scattering_coefficient ** 2, 0, 1)) * s.reflection
     weight = gamma * s.area / (4 * np.pi)
     columns = {"position": s.position, "normal": normal, "velocity": s.velocity,
                "weight": np.stack([weight.real, weight.imag], axis=-1)}
     if in_sample_phase and s.edges is not None:
+        e1, e2 = s.edges[:, 0], s.edges[:, 1]
         columns["edges"] = s.edges.reshape(p, 6)
+        columns["gram"] = np.stack([np.einsum("pi,pi->p", e1, e1), np.einsum("pi,pi->p", e2, e2),
+                                    np.einsum("pi,pi->p", e1, e2)], axis=-1)
+        if s.curvature is not None:      # e_i^T K e_j of the normal on the incident side
+            k_e1 = np.einsum("pij,pj->pi", s.curvature, e1)
+            k_e2 = np.einsum("pij,pj->pi", s.curvature, e2)
+            columns["curvature"] = side[:, None] * np.stack(
+                [np.einsum("pi,pi->p", e1, k_e1), np.einsum("pi,pi->p", e2, k_e2),
+                 0.5 * (np.einsum("pi,pi->p", e1, k_e2) + np.einsum("pi,pi->p", e2, k_e1))], axis=-1)
     if bounce.depth > 1:
         columns |= {"image_linear": bounce.image_linear.reshape(p, 9), "image_offset": bounce.image_offset,
                     "first_point": bounce.first_point, "second_direction": bounce.second_direction,
@@ -147,8 +171,9 @@ class _PairKernel:
         r = self.rows
         return [r[0][c] * d[0] + r[1][c] * d[1] + r[2][c] * d[2] for c in range(3)]
 
-    def __call__(self, position, normal, velocity, weight, out, edges=None, image_linear=None, image_offset=None,
-                 first_point=None, second_direction=None, first_velocity=None, direction=None, doppler_inner=None):
+    def __call__(self, position, normal, velocity, weight, out, edges=None, gram=None, curvature=None,
+                 image_linear=None, image_offset=None, first_point=None, second_direction=None, first_velocity=None,
+                 direction=None, doppler_inner=None):
         b, depth = self.b, self.depth
 
         def cols(values):
@@ -162,13 +187,16 @@ class _PairKernel:
 
         pos, nrm, vel = cols(position), cols(normal), cols(velocity)
         edge = None if edges is None else (cols(edges[:, :3]), cols(edges[:, 3:]))
+        gram = None if gram is None else cols(gram)
+        kappa = None if curvature is None else cols(curvature)
         if depth > 1:
             lin, off, first = cols(image_linear), cols(image_offset), cols(first_point)
             k_out_1, v_1, k_in_d = cols(second_direction), cols(first_velocity), cols(direction)
             inner = cols(doppler_inner)[0]
 
         def side(el, transmit: bool):
-            """Distance, -n.u, the two edge projections, Doppler share and sqrt(G) of one element."""
+            """Distance, -n.u, the two edge projections and the three range-curvature terms
+            (e_i.e_j - (u.e_i)(u.e_j))/r, Doppler share and sqrt(G) of one element."""
             if transmit and depth > 1:    # the image of the Tx element through the previous bounces
                 src = [lin[3 * r] * el[0] + lin[3 * r + 1] * el[1] + lin[3 * r + 2] * el[2] + off[r]
                        for r in range(3)]
@@ -178,7 +206,9 @@ class _PairKernel:
             dist = dr.sqrt(dot(d, d))
             u = [c / dist for c in d]                                   # element (image) -> sample
             values = [dist, -dot(nrm, u)]
-            values += [dot(u, e) for e in edge] if edge is not None else []
+            if edge is not None:
+                p1, p2 = dot(u, edge[0]), dot(u, edge[1])
+                values += [p1, p2, (gram[0] - p1 * p1) / dist, (gram[1] - p2 * p2) / dist, (gram[2] - p1 * p2) / dist]
             towards = d
             if depth == 1:
                 shift = -dot(vel, u) * self.inv_lambda
@@ -195,12 +225,29 @@ class _PairKernel:
         dr.eval(*tx_side, *rx_side)
         w_re, w_im = cols(weight)
         outputs = []
+        k = self.k
         for t in tx_side:
             for r in rx_side:
                 amp = dr.maximum((t[1] + r[1]) * 0.5, 0.0) * t[-1] * r[-1] / (t[0] * r[0])
-                if edge is not None:
-                    amp = amp * _sinc_half(self.k * (t[2] + r[2])) * _sinc_half(self.k * (t[3] + r[3]))
-                outputs += [-w_im * amp, w_re * amp, (t[0] + r[0]) * (1.0 / SPEED_OF_LIGHT), t[-2] + r[-2]]
+                if edge is None:
+                    f_re, f_im = amp, 0.0
+                else:       # the footprint factor of physical_optics.footprint_factor
+                    h = [t[4 + i] + r[4 + i] for i in range(3)]
+                    if kappa is not None:
+                        h = [h[i] + (t[1] + r[1]) * kappa[i] for i in range(3)]
+                    sy, sy1, sy2 = _sinc_and_derivatives(0.5 * (k * (t[2] + r[2])))
+                    sz, sz1, sz2 = _sinc_and_derivatives(0.5 * (k * (t[3] + r[3])))
+                    mu = k * (h[0] + h[1]) / 24.0
+                    base = sy * sz
+                    im = mu * base + (k / 8.0) * (h[0] * sy2 * sz + h[1] * sy * sz2 + 2.0 * h[2] * sy1 * sz1)
+                    sin_mu, cos_mu = dr.sincos(mu)
+                    var = (k * k / 4.0) * ((h[0] * h[0] + h[1] * h[1]) / 180.0 + h[2] * h[2] / 36.0)
+                    second = var < 2.0                     # else the linear factor (|F| <= 1)
+                    f_re = amp * dr.select(second, cos_mu * base + sin_mu * im, base)
+                    f_im = amp * dr.select(second, cos_mu * im - sin_mu * base, 0.0)
+                # a = j w amp F
+                outputs += [-w_im * f_re - w_re * f_im, w_re * f_re - w_im * f_im,
+                            (t[0] + r[0]) * (1.0 / SPEED_OF_LIGHT), t[-2] + r[-2]]
         dr.eval(*outputs)
         a, tau, doppler = out
         n = len(self.rx_el)

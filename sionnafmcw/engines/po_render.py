@@ -25,7 +25,9 @@ gets the barycentric interpolation of its triangle's corner normals. A flat plat
 tessellation) keeps its plane normal, a box or a trihedral its face normals (90 degree
 creases), a sphere or a body a smooth normal field. :func:`curvature_radius` reads the
 smallest radius of curvature of that field (edge length over the angle between the corner
-normals along it) for the resolution rule.
+normals along it) for the resolution rule, and every sample carries the field's shape operator
+:math:`\partial\hat{\mathbf n}/\partial\mathbf x` at its hit
+(:func:`~sionnafmcw.physical_optics.interpolated_normals`) for the second-order in-sample phase.
 
 Multiple bounces: ray-tube PO on the last surface
 -------------------------------------------------
@@ -71,7 +73,8 @@ import numpy as np
 from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
 from ..electromagnetics import slab_reflection_coefficients, unit, vertical_polarisation
 from ..physical_optics import (
-    PhysicalOpticsError, SurfaceSamples, angular_grid_steps, footprint_edges, render_resolution,
+    PhysicalOpticsError, SurfaceSamples, angular_grid_steps, footprint_edges, in_sample_factor, interpolated_normals,
+    render_resolution,
 )
 from .loaded_scene import interpolate
 
@@ -413,16 +416,17 @@ def _grid(start, width, low, high, step, pad=1):
 
 
 def _hit_geometry(obj: SceneObject, triangle, bary):
-    """Position, shading normal, velocity ``[K, 3]`` of hits on ``obj`` (float64)."""
+    """Position, shading normal, velocity ``[K, 3]`` and the normal's shape operator ``[K, 3, 3]``
+    (:func:`~sionnafmcw.physical_optics.interpolated_normals`) of hits on ``obj`` (float64)."""
     tri = obj.faces[triangle]
     w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
     position = interpolate(obj.vertices, tri, w)
-    normal = obj.turned(unit(np.einsum("kc,kci->ki", w, obj.corner_normals[triangle])))
+    normal, curvature = interpolated_normals(obj.vertices[tri], obj.turned(obj.corner_normals[triangle]), bary)
     if obj.vertex_velocity is not None:
         velocity = interpolate(obj.vertex_velocity, tri, w)
     else:
         velocity = np.broadcast_to(obj.velocity, position.shape).copy()
-    return position, normal, velocity
+    return position, normal, velocity, curvature
 
 
 def _reflection(obj_index, objects, normal, k_in, rotation, wavelength):
@@ -441,10 +445,11 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     position = np.empty((num, 3))
     normal = np.empty((num, 3))
     velocity = np.empty((num, 3))
+    curvature = np.empty((num, 3, 3))
     for k, obj in enumerate(objects):
         sel = np.flatnonzero(obj_index == k)
         if sel.size:
-            position[sel], normal[sel], velocity[sel] = _hit_geometry(obj, triangle[sel], bary[sel])
+            position[sel], normal[sel], velocity[sel], curvature[sel] = _hit_geometry(obj, triangle[sel], bary[sel])
     # the sample's distance along the ray from the (image) source, float64 from the triangle point
     distance = np.linalg.norm(position - source, axis=-1)
     direction = unit(position - source)
@@ -455,7 +460,7 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     names = np.array([o.name for o in objects], dtype=str)
     return SurfaceSamples(position, normal, area, edges=edges, velocity=velocity, reflection=gamma,
                           scattering_coefficient=s, object_id=np.array([o.shape_id for o in objects])[obj_index],
-                          triangle=triangle, barycentric=bary, labels=names[obj_index]), direction
+                          triangle=triangle, barycentric=bary, labels=names[obj_index], curvature=curvature), direction
 
 
 def render(loaded, origin, rotation, wavelength: float, velocities: dict, materials: dict, *,
@@ -592,7 +597,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     + \mathbf v_d\cdot(\hat{\mathbf k}^n_{out,d} - \hat{\mathbf k}_{in,d})]/\lambda`, element gains
     ``tx_gain [M, P]`` towards the first hit, ``rx_gain [N, P]`` from the last.
     """
-    from ..physical_optics import multiply_sinc, po_gains
+    from ..physical_optics import po_gains
 
     s = bounce.samples
     tx = np.atleast_2d(np.asarray(tx_positions, float))
@@ -607,7 +612,8 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     d_r = s.position[None] - rx[:, None]
     r_r = np.linalg.norm(d_r, axis=-1)
     s_r = d_r / r_r[..., None]                                   # Rx element -> sample
-    normal = s.normal * np.where(np.einsum("pi,pi->p", s.normal, bounce.direction) > 0, -1.0, 1.0)[:, None]
+    side = np.where(np.einsum("pi,pi->p", s.normal, bounce.direction) > 0, -1.0, 1.0)
+    normal = s.normal * side[:, None]
     cos_t = -np.einsum("pi,mpi->mp", normal, s_t)
     cos_r = -np.einsum("pi,npi->np", normal, s_r)
     obliquity = np.clip((cos_t[:, None] + cos_r[None]) / 2, 0.0, None)
@@ -615,10 +621,8 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     k = 2 * np.pi / wavelength
     footprint = np.ones((m, n, p))
     if in_sample_phase and s.edges is not None:
-        for e in range(2):
-            proj_t = np.einsum("mpi,pi->mp", s_t, s.edges[:, e])
-            proj_r = np.einsum("npi,pi->np", s_r, s.edges[:, e])
-            multiply_sinc(footprint, k, proj_t, proj_r)
+        curvature = None if s.curvature is None else s.curvature * side[:, None, None]
+        footprint = in_sample_factor(k, s.edges, s_t, r_t, cos_t, s_r, r_r, cos_r, curvature)
     g_t = np.ones((m, p)) if tx_gain is None else np.asarray(tx_gain, float)
     g_r = np.ones((n, p)) if rx_gain is None else np.asarray(rx_gain, float)
     a = (1j * gamma / (4 * np.pi)) * np.sqrt(g_t[:, None] * g_r[None]) * obliquity * s.area * footprint / (
