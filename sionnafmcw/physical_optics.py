@@ -607,7 +607,7 @@ def po_gains(samples: SurfaceSamples, tx_positions, rx_positions, wavelength: fl
     obliquity = np.clip((cos_t[:, None] + cos_r[None]) / 2, 0.0, None)
     gamma = coherent_reflection(samples.reflection, samples.scattering_coefficient)
     k = 2 * np.pi / wavelength
-    footprint = np.ones((m, n, p))
+    footprint = 1.0
     if in_sample_phase and samples.edges is not None:
         curvature = None if samples.curvature is None else samples.curvature * side[:, None, None]
         footprint = in_sample_factor(k, samples.edges, geo.s_t, geo.r_t, cos_t, geo.s_r, geo.r_r, cos_r, curvature)

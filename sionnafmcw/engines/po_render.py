@@ -215,8 +215,8 @@ class SceneObject:
     normal_rotation: np.ndarray | None = None
 
     def turned(self, normals) -> np.ndarray:
-        """Normals ``[K, 3]`` interpolated from :attr:`corner_normals`, turned by ``normal_rotation``
-        (a rotation commutes with the interpolation and keeps unit length)."""
+        """Normals ``[..., 3]`` of :attr:`corner_normals` (corners or interpolated), turned by
+        ``normal_rotation`` (a rotation commutes with the interpolation and keeps unit length)."""
         return normals if self.normal_rotation is None else normals @ self.normal_rotation.T
 
 
@@ -619,7 +619,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     obliquity = np.clip((cos_t[:, None] + cos_r[None]) / 2, 0.0, None)
     gamma = bounce.chain_reflection * np.sqrt(np.clip(1 - s.scattering_coefficient ** 2, 0, 1)) * s.reflection
     k = 2 * np.pi / wavelength
-    footprint = np.ones((m, n, p))
+    footprint = 1.0
     if in_sample_phase and s.edges is not None:
         curvature = None if s.curvature is None else s.curvature * side[:, None, None]
         footprint = in_sample_factor(k, s.edges, s_t, r_t, cos_t, s_r, r_r, cos_r, curvature)
