@@ -14,7 +14,8 @@ How: for every solver seed (``--seeds``, engine option ``seed``) the A and B run
 other (same machine load), each in its own subprocess (``--worker``), so that its peak RSS
 (``ru_maxrss`` of the worker, children reported apart) is its own. The worker creates the engine
 itself (``sionnafmcw.engines.create("path", **options)``) and reads ``engine.stats``: per run the
-total ``simulate`` seconds (imports, animation load and engine creation reported apart; the scene
+total ``simulate`` seconds, its CPU seconds (``cpu s``: user + system of the worker, all threads;
+on a shared machine a steadier measure of the work than the wall time, which other tenants stretch) (imports, animation load and engine creation reported apart; the scene
 is built beforehand), seconds per frame, every ``*_seconds`` figure of the engine summed over
 frames (``po_seconds``, ``trace_seconds``, ``adapt_seconds``, ``static_seconds``, whatever is
 present), synthesis + store (simulate minus engine), the first frame apart (scene load, kernel
@@ -80,6 +81,20 @@ time B/A 1.078 / 1.075 / 1.075 (mean 1.076); peak memory B/A 1.007; e_velo 0.485
 (A) against 0.414 / 0.450 / 0.418 m/s (B), 0.04-0.07 m/s lower on every seed. The PO stage costs
 0.11 s per frame more: the shape operator of every hit and the factor's three sincos per
 element pair and sample.
+
+Less CPU per frame (the synthesis's numpy, complex64 up to twice the unambiguous Doppler, the
+truth centroids before the first frame, PLY faces, the room's flat-shaded normals), against the
+code before it (a ``git worktree`` of that commit), same command, with the new ``cpu s``
+column::
+
+    run      total s   cpu s s/frame first s  steady engine s synth+st adapt geometry    po static trace e_velo peak MiB
+    A mean     124.1   220.2    1.24     4.9    1.12    116.2      7.8   3.4     13.9  71.5    3.4  15.9  0.427     1627
+    B mean     115.9   207.1    1.16     4.8    1.07    112.1      3.8   3.5     13.6  67.6    3.3  15.9  0.427     1511
+
+time B/A 0.916 / 0.916 / 0.974 (mean 0.934), CPU B/A 0.922 / 0.920 / 0.982 (mean 0.940), peak
+memory B/A 0.928; e_velo 0.414 / 0.450 / 0.418 m/s for both. ``synth+st`` halves (the truth
+centroids of 13 segments x 100 frames, computed before the first frame, took 7-8 s); the run
+stays CPU-bound: 207 CPU-s in 116 s on two cores.
 """
 
 from __future__ import annotations
@@ -100,6 +115,12 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 # ----------------------------------------------------------------------------- worker (one run)
+def _cpu_seconds() -> float:
+    """User + system CPU seconds of this process, all its threads (Dr.Jit's, finufft's, the synthesis worker)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
 def worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     import numpy as np
@@ -121,7 +142,9 @@ def worker(spec: dict) -> dict:
         raise SystemExit(f"engine options {spec['options']}: {exc}") from None
     t_setup = time.perf_counter() - t0
     store = Path(spec["store"])
+    cpu0 = _cpu_seconds()
     run, seconds = run_engine(animation, radar, engine, store, frames=frames, seed=0, progress=False)
+    cpu_seconds = _cpu_seconds() - cpu0
     stats = list(engine.stats)
     t0 = time.perf_counter()
     result = analyse(run, frames=frames)
@@ -140,7 +163,7 @@ def worker(spec: dict) -> dict:
     return {
         "options": spec["options"], "engine_settings": engine.settings(), "frames": len(frames),
         "import_seconds": t_import, "setup_seconds": t_setup, "analysis_seconds": t_analysis,
-        "total_seconds": seconds, "seconds_per_frame": seconds / len(frames),
+        "total_seconds": seconds, "seconds_per_frame": seconds / len(frames), "cpu_seconds": cpu_seconds,
         "engine_seconds": float(per_frame.sum()), "synthesis_store_seconds": seconds - float(per_frame.sum()),
         "stage_seconds": stage,
         "first_frame": {"seconds": first.seconds, "kernels_compiled": first.kernels_compiled,
@@ -179,7 +202,8 @@ def launch(spec: dict, env_extra: dict | None = None) -> dict:
 def fmt_row(name: str, r: dict, keys: list[str]) -> str:
     m = r["metrics"]
     steady = r["steady"]["engine_seconds_median"]
-    cells = [f"{name:<12}", f"{r['total_seconds']:8.1f}", f"{r['seconds_per_frame']:7.2f}",
+    cells = [f"{name:<12}", f"{r['total_seconds']:8.1f}", f"{r.get('cpu_seconds', float('nan')):7.1f}",
+             f"{r['seconds_per_frame']:7.2f}",
              f"{r['first_frame']['seconds']:7.1f}", f"{steady if steady is not None else float('nan'):7.2f}",
              f"{r['engine_seconds']:8.1f}", f"{r['synthesis_store_seconds']:8.1f}"]
     cells += [f"{r['stage_seconds'][k]:{max(len(k) - 8, 7)}.1f}" if k in r["stage_seconds"]
@@ -191,7 +215,7 @@ def fmt_row(name: str, r: dict, keys: list[str]) -> str:
 
 def print_table(runs: list[dict], seeds: list[int]) -> dict:
     keys = sorted({k for r in runs for k in r["stage_seconds"]})
-    head = (f"{'run':<12} {'total s':>8} {'s/frame':>7} {'first s':>7} {'steady':>7} {'engine s':>8} "
+    head = (f"{'run':<12} {'total s':>8} {'cpu s':>7} {'s/frame':>7} {'first s':>7} {'steady':>7} {'engine s':>8} "
             f"{'synth+st':>8} " + "".join(f"{k[:-8]:>{max(len(k) - 8, 7)}} " for k in keys)
             + f"{'e_velo':>7} {'median':>7} {'<1 bin':>6} {'peak MiB':>8}")
     print(head)
@@ -204,6 +228,7 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
         a, b = by["A", seed], by["B", seed]
         summary["per_seed"][seed] = {
             "time_ratio_b_over_a": b["total_seconds"] / a["total_seconds"],
+            "cpu_ratio_b_over_a": b["cpu_seconds"] / a["cpu_seconds"],
             "peak_rss_ratio_b_over_a": b["peak_rss_mib"] / a["peak_rss_mib"],
             "abs_delta_e_velo": abs(b["metrics"]["e_velo"] - a["metrics"]["e_velo"])}
     mean = lambda xs: sum(xs) / len(xs)  # noqa: E731
@@ -211,6 +236,7 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
         rs = [by[method, s] for s in seeds]
         summary["mean"][method] = {
             "total_seconds": mean([r["total_seconds"] for r in rs]),
+            "cpu_seconds": mean([r["cpu_seconds"] for r in rs]),
             "seconds_per_frame": mean([r["seconds_per_frame"] for r in rs]),
             "first_frame_seconds": mean([r["first_frame"]["seconds"] for r in rs]),
             "steady_engine_seconds": mean([r["steady"]["engine_seconds_median"] or 0.0 for r in rs]),
@@ -225,7 +251,7 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
     if len(seeds) > 1:
         for method in ("A", "B"):
             mm = summary["mean"][method]
-            row = {"total_seconds": mm["total_seconds"], "seconds_per_frame": mm["seconds_per_frame"],
+            row = {"total_seconds": mm["total_seconds"], "cpu_seconds": mm["cpu_seconds"], "seconds_per_frame": mm["seconds_per_frame"],
                    "first_frame": {"seconds": mm["first_frame_seconds"]},
                    "steady": {"engine_seconds_median": mm["steady_engine_seconds"]},
                    "engine_seconds": mm["engine_seconds"], "synthesis_store_seconds": mm["synthesis_store_seconds"],
@@ -234,13 +260,15 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
             print(fmt_row(f"{method} mean", row, keys))
     print()
     for seed, s in summary["per_seed"].items():
-        print(f"seed {seed}: time B/A {s['time_ratio_b_over_a']:.3f}, peak memory B/A "
+        print(f"seed {seed}: time B/A {s['time_ratio_b_over_a']:.3f}, CPU B/A {s['cpu_ratio_b_over_a']:.3f}, peak memory B/A "
               f"{s['peak_rss_ratio_b_over_a']:.3f}, |e_velo B - e_velo A| {s['abs_delta_e_velo']:.4f} m/s")
     ma, mb = summary["mean"]["A"], summary["mean"]["B"]
     summary["mean"]["time_ratio_b_over_a"] = mb["total_seconds"] / ma["total_seconds"]
+    summary["mean"]["cpu_ratio_b_over_a"] = mb["cpu_seconds"] / ma["cpu_seconds"]
     summary["mean"]["peak_rss_ratio_b_over_a"] = mb["peak_rss_mib"] / ma["peak_rss_mib"]
     summary["mean"]["abs_delta_e_velo"] = mean([s["abs_delta_e_velo"] for s in summary["per_seed"].values()])
-    print(f"mean over {len(seeds)} seed(s): time B/A {summary['mean']['time_ratio_b_over_a']:.3f}, peak memory "
+    print(f"mean over {len(seeds)} seed(s): time B/A {summary['mean']['time_ratio_b_over_a']:.3f}, CPU B/A "
+          f"{summary['mean']['cpu_ratio_b_over_a']:.3f}, peak memory "
           f"B/A {summary['mean']['peak_rss_ratio_b_over_a']:.3f}, |e_velo B - e_velo A| "
           f"{summary['mean']['abs_delta_e_velo']:.4f} m/s")
     return summary

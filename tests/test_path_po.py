@@ -265,6 +265,36 @@ def test_shading_normals_and_curvature():
     assert abs(curvature_radius(v, f, n, quantile=0.5) / 0.1 - 1) < 0.1
 
 
+def test_flat_shaded_objects_skip_the_normal_interpolation():
+    """On an object whose faces have one normal at all corners (the room's axis-aligned planes, a
+    box) the hit normal is that normal and the shape operator zero, as interpolated_normals gives,
+    turned with the object; a smoothed ellipsoid is not flat-shaded and keeps the interpolation, and
+    so does a tilted plate whose corner normals differ by rounding (None: either way, same result)."""
+    from animation_helpers import box_mesh
+    from sionnafmcw.engines.po_render import Material, SceneObject, _hit_geometry
+    from sionnafmcw.physical_optics import interpolated_normals
+
+    rng = np.random.default_rng(3)
+    skin = Material("m", 5 - 1j, 0.0, 0.0)
+    rot = rotation_matrix((0.4, 0.2, -0.3))
+    shapes = [meshes.plate((1, 2, 3), (0.4, 0.4), normal=(0.0, 0.0, 1.0), subdiv=5), box_mesh((0, 0, 0), (1, 1, 1)),
+              meshes.ellipsoid((0, 0, 0), (0.1, 0.2, 0.3), n_rings=12, n_segments=24),
+              meshes.plate((1, 2, 3), (0.4, 0.4), normal=(0.3, 0.5, 0.8), subdiv=5)]
+    for (v, f), flat in zip(shapes, (True, True, False, None)):
+        for turn in (None, rot):
+            obj = SceneObject("o", 1, f, v, shading_normals(v, f), None, np.zeros(3), skin, np.inf, turn)
+            if flat is not None:
+                assert obj.flat_shaded is flat
+            tri = rng.integers(0, len(f), 200)
+            bary = rng.dirichlet([1, 1, 1], 200)[:, 1:]
+            _, normal, _, curvature = _hit_geometry(obj, tri, bary)
+            n_ref, k_ref = interpolated_normals(v[f[tri]], obj.turned(obj.corner_normals[tri]), bary)
+            np.testing.assert_allclose(normal, n_ref, rtol=0, atol=1e-15)
+            np.testing.assert_allclose(curvature, k_ref, rtol=0, atol=1e-12)
+            if flat is not None:
+                assert flat == (not np.any(curvature))
+
+
 def test_rigidly_moved_mesh_keeps_its_normals_turned():
     """A body segment is a new PLY every frame but the same mesh moved rigidly: the rotation is
     recovered (Kabsch), its turned normals equal the normals computed afresh from the float32

@@ -75,6 +75,8 @@ class PlyData:
         if isinstance(polys, np.ndarray) and polys.ndim == 2:
             if polys.shape[1] < 3:
                 raise AnimationError(f"{self.path}: faces with fewer than 3 vertices")
+            if polys.shape[1] == 3:   # triangles already
+                return np.ascontiguousarray(polys, dtype=np.int64)
             fans = [polys[:, [0, k, k + 1]] for k in range(1, polys.shape[1] - 1)]
             return np.stack(fans, axis=1).reshape(-1, 3).astype(np.int64)
         tris = []

@@ -66,6 +66,8 @@ return to the receive elements is not checked for blocking.
 
 from __future__ import annotations
 
+import functools
+
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -218,6 +220,13 @@ class SceneObject:
         """Normals ``[..., 3]`` of :attr:`corner_normals` (corners or interpolated), turned by
         ``normal_rotation`` (a rotation commutes with the interpolation and keeps unit length)."""
         return normals if self.normal_rotation is None else normals @ self.normal_rotation.T
+
+    @functools.cached_property
+    def flat_shaded(self) -> bool:
+        """True when every face has one normal at its three corners (the room's planes): the
+        interpolated normal is then that normal and its shape operator is zero, exactly."""
+        n = self.corner_normals
+        return bool(np.all(n[:, 1:] == n[:, :1]))
 
 
 #: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
@@ -421,7 +430,12 @@ def _hit_geometry(obj: SceneObject, triangle, bary):
     tri = obj.faces[triangle]
     w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
     position = interpolate(obj.vertices, tri, w)
-    normal, curvature = interpolated_normals(obj.vertices[tri], obj.turned(obj.corner_normals[triangle]), bary)
+    if obj.flat_shaded:   # what interpolated_normals gives there, without its arithmetic
+        m = obj.turned(obj.corner_normals[triangle, 0])
+        normal = m / np.linalg.norm(m, axis=-1)[:, None]
+        curvature = np.zeros((len(triangle), 3, 3))
+    else:
+        normal, curvature = interpolated_normals(obj.vertices[tri], obj.turned(obj.corner_normals[triangle]), bary)
     if obj.vertex_velocity is not None:
         velocity = interpolate(obj.vertex_velocity, tri, w)
     else:

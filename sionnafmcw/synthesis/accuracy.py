@@ -47,19 +47,25 @@ constant term, or it and :math:`l'^2`, survive). The NUFFT tolerance takes the r
 
 clipped to :data:`MAX_NUFFT_TOL` (a looser kernel is not faster). For the walk-77ghz radar
 (:math:`\sigma = 0.56\ \mu\sqrt{W}`, budget 56 n :math:`\sqrt{W}`) a circle-walk frame of the path
-or pixel engine has :math:`\sqrt{P_t}\sum|a| \approx 55\sigma` per channel, so
-:math:`\epsilon` hits the cap; the point-target walk frame of ``benchmarks/synthesis.py``
-(:math:`600\sigma`: 8 specular returns of 1-20 m^2) gets :math:`1.9\times10^{-5}`, in double
-precision. Single precision
-(complex64 finufft, 1.5-2x less work) is used when :math:`\epsilon \ge`
-:data:`SINGLE_PRECISION_MIN_TOL` and every contribution is inside the unambiguous Doppler
-(:math:`|B_p| \le 1/2` cycle per TDM block). There float32 finufft bottoms out at
-:math:`0.5\text{-}1\times10^{-5}` of the strength sum (measured on the walk-77ghz and
+engine (PO body, its second bounces and the traced paths) has :math:`\sqrt{P_t}\sum|a| \approx
+150\sigma` per channel and gets :math:`\epsilon \approx 3.5\times10^{-5}`; the point-target walk
+frame of ``benchmarks/synthesis.py`` (:math:`600\sigma`: 8 specular returns of 1-20 m^2) gets
+:math:`1.9\times10^{-5}`, in double precision. Single precision (complex64 finufft, 1.5-2x less
+work) is used when :math:`\epsilon \ge` :data:`SINGLE_PRECISION_MIN_TOL` and every contribution
+lies within twice the unambiguous Doppler (:math:`|B_p| \le`
+:data:`SINGLE_PRECISION_MAX_BLOCK_PHASE` = 1 cycle per TDM block). There float32 finufft bottoms
+out at :math:`0.5\text{-}1\times10^{-5}` of the strength sum (measured on the walk-77ghz and
 12 x 128 x 256 grids, worst case all strengths in phase), under :math:`0.05\,s\,\epsilon` for
-:math:`\epsilon \ge 2.5\times10^{-5}`, and above it the error is the same as in double
-precision (measured up to 2.2 :math:`\epsilon`), so the bound holds. Far outside the unambiguous Doppler the
-float32 phases :math:`x_j s_k` reach :math:`10^4` rad and the floor grows with them (measured 2x
-over the budget at 170 m/s), so double precision is used there.
+:math:`\epsilon \ge 2.5\times10^{-5}`, and above it the error is the same as in double precision
+(measured up to 2.2 :math:`\epsilon`), so the bound holds. The floor grows with the float32
+phases :math:`x_j s_k`, i.e. with :math:`|B_p|`: on the walk-77ghz grid with the strengths in
+phase (``python benchmarks/single_precision.py``) the largest error at
+:math:`\epsilon = 2.5\times10^{-5}` is 0.33 / 0.43 / 0.41 / 0.58 :math:`\epsilon` times the
+strength sum for :math:`|B_p|` up to 0.5 / 0.75 / 1 / 2 (double precision 0.24-0.28), far under
+the bound's 16. A walk frame's second bounces reach :math:`|B_p| = 0.51` (the Doppler of two
+moving bounces adds), hence the limit 1 rather than the unambiguous 1/2. Far outside (170 m/s,
+:math:`|B_p| \approx 9`) the float32 phases reach :math:`10^4` rad and the floor was measured 2x
+over the budget, so double precision is used there.
 
 With noise off there is no floor to hide under: the tight defaults :data:`NUFFT_TOL`,
 :data:`TAYLOR_TOL` (relative, double precision) are kept unless an explicit absolute
@@ -90,6 +96,9 @@ NOISE_MARGIN_DB = 20.0
 TAYLOR_SHARE = 0.1
 #: Smallest finufft tolerance for which the single-precision (complex64) library is used.
 SINGLE_PRECISION_MIN_TOL = 2.5e-5
+#: Largest :math:`|B_p|` (cycles per TDM block; 1/2 is the unambiguous Doppler) for which complex64
+#: is used: its floor measured under 0.6 tol x strength sum up to 2 (``benchmarks/single_precision.py``).
+SINGLE_PRECISION_MAX_BLOCK_PHASE = 1.0
 #: finufft's type-3 tolerance is "about": measured errors reach 8.1 tol x (strength sum) (see the
 #: module docstring), so the bound uses sixteen times the tolerance requested.
 NUFFT_SAFETY = 16.0
@@ -171,36 +180,45 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     :math:`\sum_{t\,\rm kept} w_t`. Without it, all monomials up to the order given by the relative
     ``taylor_tol`` and the relative ``nufft_tol`` in double precision (the tight default).
     ``max_block_phase``: the largest :math:`|B_p|` (cycles per TDM block); single precision is
-    used only within the unambiguous Doppler, :math:`|B_p| \le 1/2`, where its floor was measured.
+    used only up to :data:`SINGLE_PRECISION_MAX_BLOCK_PHASE`, where its floor was measured.
     """
     root_pt = float(np.sqrt(tx_power))
     pairs = [(np.asarray(a, float), np.asarray(f, float).reshape(3, -1)) for a, f in zip(amplitudes, residual_phases)]
     static_sum = root_pt * max((float(a.sum()) for a, _ in pairs), default=0.0)
-    # only moving contributions have a residual: keep those for the Taylor weights
+    # only moving contributions have a residual (theta = 0 adds exactly 0 to every weight but the
+    # constant's and to every tail): take them out when they are many (a static block), keep the
+    # few of a moving frame rather than copy the rest
     moving = []
     for a, f in pairs:
         theta = f.sum(axis=0)
         keep = theta > 0
-        moving.append((a, f, theta) if keep.all() else (a[keep], f[:, keep], theta[keep]))
+        num_kept = int(np.count_nonzero(keep))
+        moving.append((a, f, theta) if 2 * num_kept >= keep.size else (a[keep], f[:, keep], theta[keep]))
     theta_max = max((float(t.max()) for _, _, t in moving if t.size), default=0.0)
     powers = [{} for _ in moving]          # per channel: (i, e) -> phi_i^e / e!
+    theta_powers = [{} for _ in moving]    # per channel: e -> theta^e
     growth = [None] * len(moving)          # per channel: |a| e^theta
 
     def power(c, i, e):
         if (i, e) not in powers[c]:
-            powers[c][i, e] = moving[c][1][i] ** e / factorial(e)
+            phi = moving[c][1][i]
+            powers[c][i, e] = phi / e if e == 1 else power(c, i, e - 1) * phi / e
         return powers[c][i, e]
+
+    def theta_power(c, e):
+        if e not in theta_powers[c]:
+            t = moving[c][2]
+            theta_powers[c][e] = t if e == 1 else theta_power(c, e - 1) * t
+        return theta_powers[c][e]
 
     def weight(term):  # sqrt(P_t) max_c sum_p |a_p| prod_i phi_i^e_i / e_i!
         if not any(term):
             return static_sum
         best = 0.0
         for c, (a, _, _) in enumerate(moving):
-            w = a
-            for i, e in enumerate(term):
-                if e:
-                    w = w * power(c, i, e)
-            best = max(best, float(w.sum()))
+            factors = [power(c, i, e) for i, e in enumerate(term) if e]
+            w = factors[0] if len(factors) == 1 else np.prod(factors, axis=0)
+            best = max(best, float((a * w).sum()))   # not np.dot: BLAS threads spin on the CPU
         return root_pt * best
 
     def tail(d, factor=True):  # sqrt(P_t) max_c sum_p |a_p| [e^theta] theta^(d+1)/(d+1)!
@@ -208,7 +226,7 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
         for c, (a, _, t) in enumerate(moving):
             if factor and growth[c] is None:
                 growth[c] = a * np.exp(t)
-            best = max(best, float(np.sum((growth[c] if factor else a) * t ** (d + 1))))
+            best = max(best, float(((growth[c] if factor else a) * theta_power(c, d + 1)).sum()))
         return root_pt * best / factorial(d + 1)
 
     if max_error is None:
@@ -238,6 +256,6 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     tol = MAX_NUFFT_TOL if total == 0 else min(MAX_NUFFT_TOL, (max_error - dropped) / (NUFFT_SAFETY * total))
     # double precision cannot go much below 1e-14 relative; the bound then says so honestly
     tol = max(tol, 1e-14)
-    single = tol >= SINGLE_PRECISION_MIN_TOL and max_block_phase <= 0.5
+    single = tol >= SINGLE_PRECISION_MIN_TOL and max_block_phase <= SINGLE_PRECISION_MAX_BLOCK_PHASE
     dtype = "complex64" if single else "complex128"
     return SynthesisAccuracy(tuple(terms), float(tol), dtype, dropped, NUFFT_SAFETY * tol * total, float(max_error))

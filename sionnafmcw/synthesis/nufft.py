@@ -116,8 +116,10 @@ class _Grid:
 
 
 def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
+    """The live contributions (non-zero gain) of every channel as type-3 sources, strengths and residuals."""
     Ns = radar.num_samples
     slot = radar.tx_slot()
+    basis_max = 2 * np.pi * np.asarray(grid.basis_max)
     out = []
     for m in range(radar.num_tx):
         for n in range(radar.num_rx):
@@ -131,18 +133,25 @@ def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
             poly = PhasePolynomial.from_delay_doppler(echoes.tau[m, n, live], nu, slot[m], radar)
             poly = poly.shift_chirp_origin(grid.l0)
             residual = (poly.c - grid.eps1 * poly.b, poly.k_u - grid.eps2 * poly.b, poly.k_l)
-            phases = 2 * np.pi * np.abs(np.stack(residual)) * np.asarray(grid.basis_max)[:, None]
-            phi0 = 2 * np.pi * (poly.phi0 - np.round(poly.phi0))
+            phases = np.empty((3, a.size))
+            for i, r in enumerate(residual):
+                np.abs(r, out=phases[i])
+                phases[i] *= basis_max[i]
             # shift A by whole cycles into [-1/2, 1/2): exp(j2pi*j*k') = exp(-j*pi*j*(Ns-1)) for
             # k' = k-(Ns-1)/2, i.e. (-1)^(j (Ns - 1)) for the whole number j
             wraps = np.round(poly.a)
-            turn = np.empty(phi0.shape, dtype=complex)
-            turn.real, turn.imag = np.cos(phi0), np.sin(phi0)
+            phi0 = poly.phi0 - np.round(poly.phi0)
+            phi0 *= 2 * np.pi
+            turn = np.empty(a.shape, dtype=complex)
+            np.cos(phi0, out=turn.real)
+            np.sin(phi0, out=turn.imag)
             if (Ns - 1) % 2:
-                turn[np.mod(wraps, 2) == 1] *= -1.0
-            strength = np.conj(a) * turn
-            out.append(_Channel(m, n, 2 * np.pi * (poly.a - wraps), 2 * np.pi * poly.b, strength, residual,
-                                phases, np.abs(a)))
+                odd = wraps.astype(np.int64) & 1   # |A| is far below 2^63 cycles
+                turn *= 1 - 2 * odd
+            turn *= np.conj(a)
+            x = poly.a - wraps
+            x *= 2 * np.pi
+            out.append(_Channel(m, n, x, 2 * np.pi * poly.b, turn, residual, phases, np.abs(a)))
     return out
 
 
