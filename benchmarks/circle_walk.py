@@ -14,9 +14,10 @@ How: for every solver seed (``--seeds``, engine option ``seed``) the A and B run
 other (same machine load), each in its own subprocess (``--worker``), so that its peak RSS
 (``ru_maxrss`` of the worker, children reported apart) is its own. The worker creates the engine
 itself (``sionnafmcw.engines.create("path", **options)``) and reads ``engine.stats``: per run the
-total ``simulate`` seconds, its CPU seconds (``cpu s``: user + system of the worker, all threads;
-on a shared machine a steadier measure of the work than the wall time, which other tenants stretch) (imports, animation load and engine creation reported apart; the scene
-is built beforehand), seconds per frame, every ``*_seconds`` figure of the engine summed over
+total ``simulate`` seconds (imports, animation load and engine creation reported apart; the
+scene is built beforehand), its CPU seconds (``cpu s``: user + system of the worker, all threads;
+on a shared machine a steadier measure of the work than the wall time, which other tenants
+stretch), seconds per frame, every ``*_seconds`` figure of the engine summed over
 frames (``po_seconds``, ``trace_seconds``, ``adapt_seconds``, ``static_seconds``, whatever is
 present), synthesis + store (simulate minus engine), the first frame apart (scene load, kernel
 compilation: ``kernels_compiled``, ``reloaded``) from the steady state (median of frames >= 1).
@@ -251,7 +252,8 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
     if len(seeds) > 1:
         for method in ("A", "B"):
             mm = summary["mean"][method]
-            row = {"total_seconds": mm["total_seconds"], "cpu_seconds": mm["cpu_seconds"], "seconds_per_frame": mm["seconds_per_frame"],
+            row = {"total_seconds": mm["total_seconds"], "cpu_seconds": mm["cpu_seconds"],
+                   "seconds_per_frame": mm["seconds_per_frame"],
                    "first_frame": {"seconds": mm["first_frame_seconds"]},
                    "steady": {"engine_seconds_median": mm["steady_engine_seconds"]},
                    "engine_seconds": mm["engine_seconds"], "synthesis_store_seconds": mm["synthesis_store_seconds"],
@@ -260,7 +262,8 @@ def print_table(runs: list[dict], seeds: list[int]) -> dict:
             print(fmt_row(f"{method} mean", row, keys))
     print()
     for seed, s in summary["per_seed"].items():
-        print(f"seed {seed}: time B/A {s['time_ratio_b_over_a']:.3f}, CPU B/A {s['cpu_ratio_b_over_a']:.3f}, peak memory B/A "
+        print(f"seed {seed}: time B/A {s['time_ratio_b_over_a']:.3f}, CPU B/A {s['cpu_ratio_b_over_a']:.3f}, "
+              f"peak memory B/A "
               f"{s['peak_rss_ratio_b_over_a']:.3f}, |e_velo B - e_velo A| {s['abs_delta_e_velo']:.4f} m/s")
     ma, mb = summary["mean"]["A"], summary["mean"]["B"]
     summary["mean"]["time_ratio_b_over_a"] = mb["total_seconds"] / ma["total_seconds"]

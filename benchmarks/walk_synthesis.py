@@ -1,0 +1,151 @@
+"""Beat synthesis of circle-walk frames with the code of two checkouts, in turns: wall and CPU seconds.
+
+What it measures: ``beat_nufft`` of the per-frame echoes of the path engine's circle-walk frames
+(the contributions after the static block: what ``synthesize`` sums every frame) at the error
+budget ``synthesize`` gives them with noise on (90 % of the budget 20 dB below the thermal noise,
+``synthesis.STATIC_BUDGET_SHARE``). The echoes are computed once, here, with this checkout's
+engine defaults, and written to a temporary ``.npz``; then each method runs in its own
+subprocess on the same echoes, A and B in turns ``--repeats`` times:
+
+* A: ``sionnafmcw`` of ``--tree-a`` (e.g. a ``git worktree`` of the commit before a change);
+* B: ``sionnafmcw`` of ``--tree-b`` (default: this checkout).
+
+Each run prints the settings its code chooses (Taylor terms, finufft tolerance, precision), the
+wall and CPU seconds (user + system of the process, all threads) per frame, the median over the
+runs of each method and the B/A ratios. The cube of the first frame from both is compared
+against a tight (tolerance 1e-9) transform, relative to the budget.
+
+    git worktree add /tmp/before HEAD~1
+    python benchmarks/walk_synthesis.py --scene /tmp/cw8 --tree-a /tmp/before [--frames 2 3 4 5] [--repeats 3]
+
+Measured
+--------
+The synthesis changes of the stop that added this script (``_channels`` and ``choose_accuracy``
+leaner, complex64 up to twice the unambiguous Doppler) against the commit before them
+(``git worktree add /tmp/before 2c9e552``), ``--scene /tmp/cw8 --tree-a /tmp/before --repeats 5``
+on the 2-core AMD EPYC (frames 2-5, 9.2e4 contributions per channel in the first)::
+
+    A: 2 terms, tol 3.27e-05, complex128, error 0.0036 of the budget
+    B: 2 terms, tol 3.27e-05, complex64,  error 0.0132 of the budget
+    per frame, A: 0.371 0.341 0.335 0.299 0.347 s wall, 0.552 0.488 0.494 0.445 0.514 s CPU
+               B: 0.249 0.279 0.226 0.290 0.244 s wall, 0.359 0.408 0.329 0.392 0.356 s CPU
+    median per frame: A 0.341 s wall, 0.494 s CPU; B 0.249 s wall, 0.359 s CPU; B/A wall 0.730, CPU 0.727
+
+The first frame's error against a tight transform stays about a hundredth of the budget in
+single precision; the bound, the same in both, fills the budget by construction.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import walk_frames
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def worker(data: str, radar_name: str, repeats: int, reference: str | None) -> dict:
+    """Time ``beat_nufft`` of the frames in ``data`` with the ``sionnafmcw`` on the path."""
+    import numpy as np
+
+    import sionnafmcw
+    from sionnafmcw import Echoes, RadarConfig
+    from sionnafmcw.synthesis import STATIC_BUDGET_SHARE, beat_nufft, noise_error_budget, synthesis_accuracy
+
+    radar = RadarConfig.resolve(radar_name)
+    stored = np.load(data)
+    frames = [Echoes(stored[f"a{i}"], stored[f"tau{i}"], stored[f"doppler{i}"]) for i in range(int(stored["count"]))]
+    budget = (1.0 - STATIC_BUDGET_SHARE) * noise_error_budget(radar)
+    accuracy = synthesis_accuracy(frames[0], radar, max_error=budget)
+    first = beat_nufft(frames[0], radar, max_error=budget)          # warm-up (plans, imports)
+    out = {"package": str(Path(sionnafmcw.__file__).parent), "terms": len(accuracy.terms),
+           "tol": accuracy.nufft_tol, "dtype": accuracy.dtype}
+    if reference:
+        tight = np.load(reference)["cube"]
+        out["error_over_budget"] = float(np.abs(first - tight).max() / budget)
+    wall, cpu = [], []
+    for _ in range(repeats):
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        c0, t0 = usage.ru_utime + usage.ru_stime, time.perf_counter()
+        for echoes in frames:
+            beat_nufft(echoes, radar, max_error=budget)
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        wall.append((time.perf_counter() - t0) / len(frames))
+        cpu.append((usage.ru_utime + usage.ru_stime - c0) / len(frames))
+    return out | {"wall": wall, "cpu": cpu}
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    walk_frames.add_arguments(p, "out/bench_walk_synthesis", [2, 3, 4, 5], 3)
+    p.add_argument("--tree-a", help="checkout whose sionnafmcw runs A (required)")
+    p.add_argument("--tree-b", default=str(REPO), help="checkout whose sionnafmcw runs B (default: this one)")
+    p.add_argument("--worker", nargs=4, metavar=("DATA", "RADAR", "REPEATS", "REFERENCE"), help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.worker:
+        data, radar_name, repeats, reference = args.worker
+        print(json.dumps(worker(data, radar_name, int(repeats), reference or None)))
+        return 0
+    if not args.tree_a:
+        p.error("--tree-a is required (e.g. git worktree add /tmp/before HEAD~1, then --tree-a /tmp/before)")
+    for name, tree in (("a", args.tree_a), ("b", args.tree_b)):
+        if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
+            p.error(f"--tree-{name} {tree}: no sionnafmcw package there (e.g. git worktree add /tmp/before HEAD~1)")
+
+    import numpy as np
+
+    from sionnafmcw import engines
+    from sionnafmcw.synthesis import beat_nufft
+
+    animation, radar = walk_frames.load(p, args)
+    engine = engines.create("path", track_kernels=False)
+    arrays = {"count": len(args.frames)}
+    for i, frame in enumerate(args.frames):
+        e = engine.echoes(animation, radar, frame)
+        k = e.static_count
+        arrays |= {f"a{i}": e.a[..., k:], f"tau{i}": e.tau[..., k:], f"doppler{i}": e.doppler[..., k:]}
+    engine.close()
+    with tempfile.TemporaryDirectory() as tmp:
+        data = os.path.join(tmp, "echoes.npz")
+        np.savez(data, **arrays)
+        from sionnafmcw import Echoes
+
+        first = Echoes(arrays["a0"], arrays["tau0"], arrays["doppler0"])
+        reference = os.path.join(tmp, "tight.npz")
+        np.savez(reference, cube=beat_nufft(first, radar, nufft_tol=1e-9))
+        print(f"{len(args.frames)} frames, {arrays['a0'].shape[-1]} contributions per channel in the first")
+        runs = {"A": [], "B": []}
+        for r in range(args.repeats):
+            for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
+                env = os.environ | {"PYTHONPATH": str(Path(tree).resolve())}
+                cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", data, args.radar, "1",
+                       reference if r == 0 else ""]
+                proc = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True)
+                if proc.returncode != 0:
+                    raise SystemExit(f"worker {method} failed:\n{proc.stderr[-3000:]}")
+                result = json.loads(proc.stdout.strip().splitlines()[-1])
+                runs[method].append(result)
+                extra = ""
+                if "error_over_budget" in result:
+                    extra = f", error {result['error_over_budget']:.4f} of the budget"
+                print(f"{method} run {r + 1}: {result['terms']} terms, tol {result['tol']:.3g}, {result['dtype']}; "
+                      f"{result['wall'][0]:.3f} s wall, {result['cpu'][0]:.3f} s CPU per frame{extra}  "
+                      f"({result['package']})")
+    median = {m: (float(np.median([x["wall"][0] for x in rs])), float(np.median([x["cpu"][0] for x in rs])))
+              for m, rs in runs.items()}
+    print(f"median per frame: A {median['A'][0]:.3f} s wall, {median['A'][1]:.3f} s CPU; "
+          f"B {median['B'][0]:.3f} s wall, {median['B'][1]:.3f} s CPU; "
+          f"B/A wall {median['B'][0] / median['A'][0]:.3f}, CPU {median['B'][1] / median['A'][1]:.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
