@@ -52,8 +52,8 @@ import walk_frames
 REPO = Path(__file__).resolve().parents[1]
 
 
-def worker(data: str, radar_name: str, repeats: int, reference: str | None) -> dict:
-    """Time ``beat_nufft`` of the frames in ``data`` with the ``sionnafmcw`` on the path."""
+def worker(data: str, radar_name: str, reference: str | None) -> dict:
+    """Time ``beat_nufft`` of the frames in ``data`` once (after a warm-up) with the ``sionnafmcw`` on the path."""
     import numpy as np
 
     import sionnafmcw
@@ -71,16 +71,13 @@ def worker(data: str, radar_name: str, repeats: int, reference: str | None) -> d
     if reference:
         tight = np.load(reference)["cube"]
         out["error_over_budget"] = float(np.abs(first - tight).max() / budget)
-    wall, cpu = [], []
-    for _ in range(repeats):
-        usage = resource.getrusage(resource.RUSAGE_SELF)
-        c0, t0 = usage.ru_utime + usage.ru_stime, time.perf_counter()
-        for echoes in frames:
-            beat_nufft(echoes, radar, max_error=budget)
-        usage = resource.getrusage(resource.RUSAGE_SELF)
-        wall.append((time.perf_counter() - t0) / len(frames))
-        cpu.append((usage.ru_utime + usage.ru_stime - c0) / len(frames))
-    return out | {"wall": wall, "cpu": cpu}
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    c0, t0 = usage.ru_utime + usage.ru_stime, time.perf_counter()
+    for echoes in frames:
+        beat_nufft(echoes, radar, max_error=budget)
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return out | {"wall": (time.perf_counter() - t0) / len(frames),
+                  "cpu": (usage.ru_utime + usage.ru_stime - c0) / len(frames)}
 
 
 def main(argv=None) -> int:
@@ -88,11 +85,11 @@ def main(argv=None) -> int:
     walk_frames.add_arguments(p, "out/bench_walk_synthesis", [2, 3, 4, 5], 3)
     p.add_argument("--tree-a", help="checkout whose sionnafmcw runs A (required)")
     p.add_argument("--tree-b", default=str(REPO), help="checkout whose sionnafmcw runs B (default: this one)")
-    p.add_argument("--worker", nargs=4, metavar=("DATA", "RADAR", "REPEATS", "REFERENCE"), help=argparse.SUPPRESS)
+    p.add_argument("--worker", nargs=3, metavar=("DATA", "RADAR", "REFERENCE"), help=argparse.SUPPRESS)
     args = p.parse_args(argv)
     if args.worker:
-        data, radar_name, repeats, reference = args.worker
-        print(json.dumps(worker(data, radar_name, int(repeats), reference or None)))
+        data, radar_name, reference = args.worker
+        print(json.dumps(worker(data, radar_name, reference or None)))
         return 0
     if not args.tree_a:
         p.error("--tree-a is required (e.g. git worktree add /tmp/before HEAD~1, then --tree-a /tmp/before)")
@@ -126,7 +123,7 @@ def main(argv=None) -> int:
         for r in range(args.repeats):
             for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
                 env = os.environ | {"PYTHONPATH": str(Path(tree).resolve())}
-                cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", data, args.radar, "1",
+                cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", data, args.radar,
                        reference if r == 0 else ""]
                 proc = subprocess.run(cmd, env=env, cwd=REPO, capture_output=True, text=True)
                 if proc.returncode != 0:
@@ -137,9 +134,9 @@ def main(argv=None) -> int:
                 if "error_over_budget" in result:
                     extra = f", error {result['error_over_budget']:.4f} of the budget"
                 print(f"{method} run {r + 1}: {result['terms']} terms, tol {result['tol']:.3g}, {result['dtype']}; "
-                      f"{result['wall'][0]:.3f} s wall, {result['cpu'][0]:.3f} s CPU per frame{extra}  "
+                      f"{result['wall']:.3f} s wall, {result['cpu']:.3f} s CPU per frame{extra}  "
                       f"({result['package']})")
-    median = {m: (float(np.median([x["wall"][0] for x in rs])), float(np.median([x["cpu"][0] for x in rs])))
+    median = {m: (float(np.median([x["wall"] for x in rs])), float(np.median([x["cpu"] for x in rs])))
               for m, rs in runs.items()}
     print(f"median per frame: A {median['A'][0]:.3f} s wall, {median['A'][1]:.3f} s CPU; "
           f"B {median['B'][0]:.3f} s wall, {median['B'][1]:.3f} s CPU; "
