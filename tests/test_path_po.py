@@ -327,6 +327,11 @@ def test_turning_segment_echoes_do_not_depend_on_the_frames_before(tmp_path):
         after = walked.echoes(anim, RADAR, frame)
     alone = PathEngine(diffuse=False, track_kernels=False).echoes(anim, RADAR, 2)
     assert after.num_contributions > 0
+    # the normals cache keeps whether they are flat-shaded, for the reference and every frame's mesh
+    from sionnafmcw.engines.po_render import flat_shaded
+
+    cached = list(walked._state.normals.values())
+    assert len(cached) >= 2 and all(entry[-1] is flat_shaded(entry[0]) is False for entry in cached)
     for name in ("a", "tau", "doppler"):
         np.testing.assert_array_equal(getattr(after, name), getattr(alone, name))
 

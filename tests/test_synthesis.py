@@ -271,3 +271,54 @@ def test_noise_off_keeps_tight_tolerance(small_radar):
     assert np.linalg.norm(fast - direct) / np.linalg.norm(direct) <= 1e-5
     cube = synthesize(echoes, radar, noise=False)
     assert np.abs(cube - direct).max() <= accuracy.error_bound + 1e-6 * np.abs(direct).max()
+
+
+@pytest.mark.parametrize("channels_per_plan", [1, 3])
+def test_keystone_fitted_per_plan_leaves_the_cross_residual_of_the_range_spread(small_radar, channels_per_plan):
+    """Issue 12: the cross residual delta_p = C_p - eps B_p is about (mu/F^2) A_p B_p, so a slope fitted
+    to a moving body 6.0-6.3 m away leaves (mu/F^2)(A_p - A_mean) B_p: its weight in the error bound
+    falls to at most the range span over the range (0.3 / 6.0, far below the radar slope's). With a
+    budget that lets the Taylor series drop the fitted residual but not the radar slope's, the fitted
+    plans carry the constant term only, and the sum still meets its bound against the direct sum."""
+    from sionnafmcw.synthesis import nufft, synthesis_accuracy
+    from sionnafmcw.synthesis.accuracy import TAYLOR_SHARE
+
+    radar = small_radar
+    rng = np.random.default_rng(12)
+    body = Echoes.point_targets(radar, rng.uniform(6.0, 6.3, 300), rng.uniform(-4.0, 4.0, 300),
+                                np.deg2rad(rng.uniform(-10, 10, 300)), 0.0, np.full(300, 1.0 / 300))
+    grid = nufft._Grid(radar)
+
+    def cross_weight(channels):   # the cross term's weight in the Taylor bound (accuracy.choose_accuracy)
+        return max(float((c.amplitude * c.phases[0]).sum()) for c in channels) * np.sqrt(radar.tx_power)
+
+    radar_slope = cross_weight(nufft._channels(body, radar, grid))
+    channels, groups, shifts = nufft._plans(body, radar, grid, channels_per_plan)
+    fitted = cross_weight(channels)
+    assert len(groups) == 12 // channels_per_plan and all(s != 0 for s in shifts)
+    assert 0 < fitted <= 0.3 / 6.0 * radar_slope
+    # a budget whose Taylor share lies between the two weights
+    budget = np.sqrt(fitted * radar_slope) / TAYLOR_SHARE
+    unfitted = nufft._accuracy(nufft._channels(body, radar, grid), radar, budget, 1e-7, 1e-8)
+    accuracy = synthesis_accuracy(body, radar, max_error=budget, channels_per_plan=channels_per_plan)
+    assert (1, 0, 0) in unfitted.terms and accuracy.terms == ((0, 0, 0),)
+    fast = beat_nufft(body, radar, max_error=budget, channels_per_plan=channels_per_plan)
+    assert max_channel_error(fast, beat_direct(body, radar)) <= accuracy.error_bound <= budget * (1 + 1e-9)
+
+
+def test_single_precision_strengths_round_only_the_phase(small_radar):
+    """In complex64 the strengths' phases are rounded to float32 (within [-pi, 2pi]: at most 2^-22 rad)
+    before the cosines; with the complex64 product's rounding (2 x 2^-24) every strength stays within
+    4e-7 of its |a_p| of the complex128 one, whose magnitude is |a_p| to float64 rounding."""
+    from sionnafmcw.synthesis import nufft
+
+    radar = small_radar   # 64 samples: Ns - 1 is odd and the A-wrap sign is folded into the phase
+    echoes = budget_echoes(radar, seed=21)
+    channels = nufft._channels(echoes, radar, nufft._Grid(radar))
+    assert max(c.phase.max() for c in channels) > np.pi   # some wrap signs are folded in
+    for c in channels:
+        assert c.phase.min() >= -np.pi and c.phase.max() <= 2 * np.pi
+        single, double = c.strength(np.complex64), c.strength(np.complex128)
+        assert single.dtype == np.complex64 and double.dtype == np.complex128
+        assert np.all(np.abs(single - double) <= 4e-7 * c.amplitude)
+        np.testing.assert_allclose(np.abs(double), c.amplitude, rtol=1e-15)

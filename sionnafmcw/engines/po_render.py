@@ -66,8 +66,6 @@ return to the receive elements is not checked for blocking.
 
 from __future__ import annotations
 
-import functools
-
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -203,7 +201,9 @@ class SceneObject:
     """One object of the render: name, Mitsuba shape id (int), faces, world vertices, corner normals
     ``[F, 3, 3]``, per-vertex velocity ``[V, 3]`` or None, rigid velocity ``[3]`` and material.
     ``normal_rotation`` (3x3 or None): the corner normals are those of a reference mesh that this
-    one is a rigid motion of, still to be turned by it (:meth:`turned`: only the normals of hits)."""
+    one is a rigid motion of, still to be turned by it (:meth:`turned`: only the normals of hits).
+    ``flat``: :attr:`flat_shaded` of these corner normals when already known (None: worked out on
+    first use)."""
 
     name: str
     shape_id: int
@@ -215,18 +215,26 @@ class SceneObject:
     material: Material
     curvature_radius: float
     normal_rotation: np.ndarray | None = None
+    flat: bool | None = None
 
     def turned(self, normals) -> np.ndarray:
         """Normals ``[..., 3]`` of :attr:`corner_normals` (corners or interpolated), turned by
         ``normal_rotation`` (a rotation commutes with the interpolation and keeps unit length)."""
         return normals if self.normal_rotation is None else normals @ self.normal_rotation.T
 
-    @functools.cached_property
+    @property
     def flat_shaded(self) -> bool:
         """True when every face has one normal at its three corners (the room's planes): the
         interpolated normal is then that normal and its shape operator is zero, exactly."""
-        n = self.corner_normals
-        return bool(np.all(n[:, 1:] == n[:, :1]))
+        if self.flat is None:
+            self.flat = flat_shaded(self.corner_normals)
+        return self.flat
+
+
+def flat_shaded(corner_normals) -> bool:
+    """True when every face of ``corner_normals [F, 3, 3]`` has one normal at its three corners."""
+    n = np.asarray(corner_normals)
+    return bool(np.all(n[:, 1:] == n[:, :1]))
 
 
 #: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
@@ -268,14 +276,15 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
     faces)`` of a fixed frame, e.g. frame 0, world frame): a mesh that is that reference moved
     rigidly (:func:`rigid_motion`: the segments of the walking body, a new PLY every frame) gets
     the reference's normals turned, computed once; the result depends on the frame only, not on
-    the frames simulated before it (a resumed run gives the same echoes)."""
+    the frames simulated before it (a resumed run gives the same echoes). The cache also keeps
+    whether the normals are :func:`flat_shaded`."""
     out = []
     for name, obj in loaded.scene.objects.items():
         faces, vertices = loaded.faces[name], loaded.vertices[name]
         key = (name, loaded.loaded_files.get(name))   # changes whenever the mesh is rewritten
         turn = None
         if cache is not None and key in cache:
-            normals, rho, turn = cache[key]
+            normals, rho, turn, flat = cache[key]
         else:
             moved, ref = None, None
             if cache is not None and reference is not None:
@@ -284,21 +293,23 @@ def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float
                     v_ref, f_ref = reference(name)
                     v_ref, f_ref = np.asarray(v_ref, float), np.asarray(f_ref)
                     n_ref = shading_normals(v_ref, f_ref, crease_angle)
-                    ref = cache[(_REFERENCE, name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref)
+                    ref = cache[(_REFERENCE, name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref,
+                                                       flat_shaded(n_ref))
                 moved = rigid_motion(ref[2], ref[3], vertices, faces)
             if moved is not None:  # the reference mesh moved rigidly (a body segment): its normals, to be turned
-                normals, rho, turn = ref[0], ref[1], moved
+                normals, rho, turn, flat = ref[0], ref[1], moved, ref[4]
             else:
                 normals = shading_normals(vertices, faces, crease_angle)
                 rho = curvature_radius(vertices, faces, normals)
+                flat = flat_shaded(normals)
             if cache is not None:
                 for old in [k for k in cache if k[0] == name]:
                     del cache[old]
-                cache[key] = (normals, rho, turn)
+                cache[key] = (normals, rho, turn, flat)
         field_v = loaded.vertex_velocity.get(name) if vertex_doppler else None
         v = np.asarray(velocities.get(name, np.zeros(3)), float)
         out.append(SceneObject(name, int(obj.object_id), faces, vertices, normals, field_v, v, materials[name], rho,
-                               turn))
+                               turn, flat))
     return out
 
 
