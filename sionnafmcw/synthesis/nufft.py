@@ -222,7 +222,8 @@ def _plans(echoes, radar, grid: _Grid, channels_per_plan: int | None):
 
 def synthesis_accuracy(echoes, radar, max_error: float | None = None, nufft_tol: float = NUFFT_TOL,
                        taylor_tol: float = TAYLOR_TOL, channels_per_plan: int | None = None) -> SynthesisAccuracy:
-    """The settings :func:`beat_nufft` uses for these echoes and their error bound (:mod:`.accuracy`)."""
+    """The settings :func:`beat_nufft` uses for these echoes and their error bound (:mod:`.accuracy`);
+    ``channels_per_plan`` as there (the keystone is fitted per plan, so the groups matter)."""
     channels, _, _ = _plans(echoes, radar, _Grid(radar), channels_per_plan)
     return _accuracy(channels, radar, max_error, nufft_tol, taylor_tol)
 
