@@ -110,18 +110,14 @@ import tempfile
 import time
 from pathlib import Path
 
+import walk_frames
+
 METHODS = {"A": {"static_scene": False}, "B": {}}
 LABELS = {"A": "before", "B": "after"}
 REPO = Path(__file__).resolve().parents[1]
 
 
 # ----------------------------------------------------------------------------- worker (one run)
-def _cpu_seconds() -> float:
-    """User + system CPU seconds of this process, all its threads (Dr.Jit's, finufft's, the synthesis worker)."""
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
-
-
 def worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     import numpy as np
@@ -143,9 +139,9 @@ def worker(spec: dict) -> dict:
         raise SystemExit(f"engine options {spec['options']}: {exc}") from None
     t_setup = time.perf_counter() - t0
     store = Path(spec["store"])
-    cpu0 = _cpu_seconds()
+    cpu0 = walk_frames.cpu_seconds()
     run, seconds = run_engine(animation, radar, engine, store, frames=frames, seed=0, progress=False)
-    cpu_seconds = _cpu_seconds() - cpu0
+    cpu_seconds = walk_frames.cpu_seconds() - cpu0
     stats = list(engine.stats)
     t0 = time.perf_counter()
     result = analyse(run, frames=frames)

@@ -1,9 +1,17 @@
 """Shared by the benchmarks that time parts of the circle walk's frames: the command-line
-arguments that choose the walk, its frames and the repeats, and the animation and radar they name."""
+arguments that choose the walk, its frames and the repeats, the animation and radar they name,
+and the process's CPU seconds."""
 
 from __future__ import annotations
 
+import resource
 from pathlib import Path
+
+
+def cpu_seconds() -> float:
+    """User + system CPU seconds of this process, all its threads (Dr.Jit's, finufft's, the synthesis worker)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def add_arguments(parser, out: str, frames: list[int], repeats: int) -> None:

@@ -60,8 +60,8 @@ Sharing across channels. The channels' sources differ (each Tx-Rx pair has its o
 Dopplers; a beat frequency shared across channels is off by ~0.1 range bin, 24-31 % error), but
 the targets :math:`(X, Y)` are the same for all of them (up to the keystone each plan fits), and
 finufft's type-3 set-up (kernel Fourier transform at every target, target sorting, the inner
-type-2 plan) costs as much as a transform. So ``channels_per_plan`` channels go into **one plan over the union of their
-sources**, each channel one strength vector that is zero on the other channels' sources: the
+type-2 plan) costs as much as a transform. So ``channels_per_plan`` channels go into **one plan
+over the union of their sources**, each channel one strength vector that is zero on the other channels' sources: the
 set-up is paid once per group and the result is still exact per channel (a zero strength
 contributes nothing, and the tolerance is relative to each vector's own strength sum). The
 groups run as single-threaded plans on a thread pool (finufft releases the GIL), which beats
@@ -191,14 +191,14 @@ def _fit_keystone(group: list[_Channel], grid: _Grid) -> float:
     docstring), applied in place to the group's cross residuals :math:`\delta_p` and their phase
     bounds; 0 (nothing changed) where the fit would not lower :math:`\sum_p |a_p||\delta_p|`."""
     num = den = 0.0
-    for c in group:
-        b = c.y / (2 * np.pi)
+    block_phases = [c.y / (2 * np.pi) for c in group]   # B_p, cycles per TDM block
+    for c, b in zip(group, block_phases):
         num += float((c.amplitude * np.sign(b) * c.residual[0]).sum())
         den += float((c.amplitude * np.abs(b)).sum())
     if den == 0.0 or num == 0.0:
         return 0.0
     shift = num / den
-    fitted = [c.residual[0] - shift * (c.y / (2 * np.pi)) for c in group]
+    fitted = [c.residual[0] - shift * b for c, b in zip(group, block_phases)]
     before = sum(float((c.amplitude * np.abs(c.residual[0])).sum()) for c in group)
     if sum(float((c.amplitude * np.abs(d)).sum()) for c, d in zip(group, fitted)) >= before:
         return 0.0
