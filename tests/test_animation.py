@@ -394,3 +394,129 @@ def test_animation_package_needs_only_numpy():
             "print(sorted(m for m in sys.modules if m.split('.')[0] in heavy))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]"
+
+
+# ------------------------------------------------------------------------------- rigid objects
+def _spin(axis, angle):
+    """Rotation of ``angle`` (rad) about the unit ``axis`` (Rodrigues)."""
+    a = np.asarray(axis, float) / np.linalg.norm(axis)
+    k = np.array([[0.0, -a[2], a[1]], [a[2], 0.0, -a[0]], [-a[1], a[0], 0.0]])
+    return np.eye(3) + np.sin(angle) * k + (1 - np.cos(angle)) * k @ k
+
+
+def _rigid_box_animation(root, num_frames=4, fps=10.0, omega=(0.4, -0.3, 2.0), velocity=(0.5, -0.2, 0.1)):
+    """A metal box turning at the constant ``omega`` (rad/s) while its centroid moves at ``velocity``,
+    written as a rigid object: one PLY in its own frame and a to_world per frame."""
+    from sionnafmcw.animation.rigid import transform_matrix
+    from sionnafmcw.scenes.writer import METAL as METAL_ID
+    from sionnafmcw.scenes.writer import AnimationWriter, metal_material
+
+    v_local, faces = box_mesh((0.0, 0.0, 0.0), (0.4, 0.2, 0.3))
+    omega, velocity = np.asarray(omega, float), np.asarray(velocity, float)
+    w = AnimationWriter(root, fps)
+    w.add_materials(metal_material())
+    w.rigid("box", v_local, faces, METAL_ID)
+    truth = []
+    for i in range(num_frames):
+        t = i / fps
+        r = _spin(omega, np.linalg.norm(omega) * t)
+        p = np.array([4.0, 0.5, 1.0]) + velocity * t   # the local centroid is the origin: p is the centroid
+        w.frame(rigid={"box": {"to_world": transform_matrix(r, p), "velocity": velocity, "angular_velocity": omega}})
+        truth.append((r, p))
+    w.finish((0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+    return root, v_local, faces, omega, velocity, truth
+
+
+def test_rigid_object_is_written_once_and_moves_exactly(tmp_path):
+    root, v_local, faces, omega, velocity, truth = _rigid_box_animation(tmp_path / "rigid")
+    assert sorted(p.name for p in (root / "meshes").iterdir()) == ["box.ply"]
+    anim = load_animation(root)
+    assert anim.object_names == ["box"]
+    for i, (r, p) in enumerate(truth):
+        mesh = anim.mesh(i, "box")
+        np.testing.assert_allclose(mesh.vertices, v_local @ r.T + p, atol=1e-6)      # float32 PLY
+        motion = anim.motion(i, "box")
+        np.testing.assert_allclose(motion.rotation, r, atol=1e-12)                   # repr floats in the XML
+        np.testing.assert_allclose(motion.angular_velocity, omega)
+        np.testing.assert_allclose(motion.centroid, p, atol=1e-6)
+        np.testing.assert_allclose(anim.object_positions(i)["box"], p, atol=1e-6)
+        # v = v_c + omega x (x - c) at every vertex: the time derivative of R(t) x_L + p(t)
+        np.testing.assert_allclose(mesh.vertex_velocities, velocity + np.cross(omega, mesh.vertices - p), atol=1e-9)
+        h = 1e-6
+        t = anim.times[i]
+        numeric = (v_local @ (_spin(omega, np.linalg.norm(omega) * (t + h)).T - _spin(omega, np.linalg.norm(omega)
+                   * (t - h)).T)) / (2 * h) + velocity
+        np.testing.assert_allclose(mesh.vertex_velocities, numeric, atol=1e-6)
+        assert np.array_equal(anim.frame(i).transforms["box"], anim.frame_xml(i).shapes["box"].to_world)
+
+
+def test_rigid_manifest_errors_name_the_field(tmp_path):
+    root = _rigid_box_animation(tmp_path / "rigid")[0]
+    data = _manifest(root)
+    data["frames"][1]["objects"]["box"]["to_world"][3] += 1e-3
+    _write_manifest(root, data)
+    with pytest.raises(AnimationError, match=r"frames\[1\]\.objects\['box'\]\.to_world differs .*0001\.xml"):
+        load_animation(root)
+    data["frames"][1]["objects"]["box"]["to_world"][3] -= 1e-3
+    data["frames"][2]["objects"]["box"]["angular_velocity"] = [0.0, float("nan"), 0.0]
+    _write_manifest(root, data)
+    with pytest.raises(AnimationError, match=r"frames\[2\]\.objects\['box'\]\.angular_velocity contains non-finite"):
+        load_animation(root)
+    data["frames"][2]["objects"]["box"]["angular_velocity"] = [0.0, 0.0, 1.0]
+    data["frames"][0]["objects"]["box"]["spin"] = 1.0
+    _write_manifest(root, data)
+    with pytest.raises(AnimationError, match=r"frames\[0\]\.objects\['box'\] has unknown field\(s\) spin"):
+        load_animation(root)
+
+
+def test_angular_velocity_and_vertex_velocities_conflict(tmp_path):
+    root = write_moving_mesh_animation(tmp_path / "m", lambda i: plate_mesh((3.0, 0.0, 0.0)), (1.0, 0.0, 0.0),
+                                       vertex_velocity_fn=lambda i, v: np.tile([1.0, 0.0, 0.0], (len(v), 1)))
+    data = _manifest(root)
+    data["frames"][0]["objects"]["plate"]["angular_velocity"] = [0.0, 0.0, 1.0]
+    _write_manifest(root, data)
+    with pytest.raises(AnimationError, match=r"frames\[0\]\.objects\['plate'\] has an angular_velocity and its mesh "
+                                             r".* carries per-vertex velocities"):
+        load_animation(root)
+
+
+def test_writer_refuses_a_frame_without_every_rigid_transform(tmp_path):
+    from sionnafmcw.scenes.writer import METAL as METAL_ID
+    from sionnafmcw.scenes.writer import AnimationWriter, metal_material
+
+    w = AnimationWriter(tmp_path / "w", 10.0)
+    w.add_materials(metal_material())
+    w.rigid("box", *box_mesh((0, 0, 0), (1, 1, 1)), METAL_ID)
+    with pytest.raises(ValueError, match=r"rigid objects without a transform in frame 0: \['box'\]"):
+        w.frame()
+    with pytest.raises(ValueError, match="must be a 4x4 proper rotation"):
+        w.frame(rigid={"box": {"to_world": np.diag([2.0, 1.0, 1.0, 1.0]), "velocity": np.zeros(3)}})
+
+
+@pytest.mark.parametrize("angle", [1e-9, 1e-4, 0.3, 2.0, np.pi - 1e-6])
+def test_rotation_vector_inverts_rodrigues(angle):
+    from sionnafmcw.animation.rigid import rotation_vector
+
+    axis = np.array([0.2, -0.7, 0.4])
+    axis /= np.linalg.norm(axis)
+    np.testing.assert_allclose(rotation_vector(_spin(axis, angle)), angle * axis, atol=1e-12 + 1e-9 * angle)
+
+
+def test_angular_velocity_of_a_constant_rate_and_rigid_fit():
+    from sionnafmcw.animation.rigid import angular_velocity, rigid_fit
+
+    omega = np.array([0.3, 1.2, -0.5])
+    rate = np.linalg.norm(omega)
+    # a constant rate about a fixed axis: the central difference is exact
+    np.testing.assert_allclose(angular_velocity(_spin(omega, rate * 0.52), _spin(omega, rate * 0.48), 0.04), omega,
+                               rtol=1e-9)
+    rng = np.random.default_rng(3)
+    x = rng.normal(size=(50, 3))
+    r, p = _spin(omega, 0.7), np.array([1.0, -2.0, 0.5])
+    fit_r, fit_p, residual = rigid_fit(x, x @ r.T + p)
+    np.testing.assert_allclose(fit_r, r, atol=1e-12)
+    np.testing.assert_allclose(fit_p, p, atol=1e-12)
+    assert residual < 1e-12
+    bent = x @ r.T + p
+    bent[0] += [0.0, 0.0, 1e-3]   # one vertex off by 1 mm: not a rigid motion
+    assert rigid_fit(x, bent)[2] > 5e-4

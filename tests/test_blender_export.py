@@ -16,7 +16,13 @@ The scene (Blender frames 1..9 at 24 fps, all keyframes LINEAR):
 * ``flag``: a horizontal 0.4 m plate (``"skin"``) sheared in its own plane by a shape key whose
   value goes 0 -> 1: :math:`\mathbf v_i = \dot w\,k\,(y_i - y_{min})\hat{\mathbf x}`,
   :math:`\dot w` = 24/8 /s, :math:`k` = 0.5; the shear keeps every triangle's area, so the
-  centroid moves at :math:`\dot w k (\bar y - y_{min})` = 0.3 m/s exactly.
+  centroid moves at :math:`\dot w k (\bar y - y_{min})` = 0.3 m/s exactly;
+* ``spinner``: a smooth-shaded metal icosphere turning about a fixed tilted axis
+  :math:`\hat{\mathbf a}` at the constant rate :math:`\dot\theta = 90°/(8/24\,\mathrm{s})` (axis-angle
+  keyframes, LINEAR): a rigid object, written once with its vertex normals and placed per frame.
+
+``box`` and ``spinner`` are rigid (one PLY, a ``to_world`` per frame), ``arm`` and ``flag`` deform
+(a PLY per frame).
 
 Tolerances:
 
@@ -45,6 +51,7 @@ import numpy as np
 import pytest
 
 from sionnafmcw import PathEngine, RadarConfig, load_animation, processing, simulate
+from sionnafmcw.animation import read_ply
 from sionnafmcw.blender import BLENDER_VENV, BlenderExportError, export_blend, script_path
 from sionnafmcw.geometry import radial_velocity, world_phase_centre, rotation_matrix
 
@@ -56,6 +63,7 @@ PARAMS = {
     "box_half_size": 0.2, "box_r0": 3.0, "box_speed": 1.5,
     "arm_origin": [-3.3, 2.0, 1.5], "arm_elbow": 0.3, "arm_theta1_deg": 60.0,
     "flag_location": [-3.0, -2.0, 2.4], "flag_size": 0.4, "flag_shear": 0.5,
+    "spin_location": [-3.2, 2.6, 0.6], "spin_radius": 0.15, "spin_axis": [0.3, -0.2, 0.9], "spin_angle_deg": 90.0,
     "camera_euler_deg": [80.0, 0.0, -60.0], "camera_location": [1.0, 2.0, 1.5],
 }
 EXACT_VELOCITY_TOL = 1e-4  # m/s, float32 positions differenced over >= 1/48 s (see the module docstring)
@@ -187,6 +195,25 @@ for f, w in ((f0, 0.0), (f1, 1.0)):
     key.keyframe_insert("value", frame=f)
 make_linear(flag.data.shape_keys)
 
+# spinner: a smooth-shaded icosphere turning about a fixed axis at a constant rate (a rigid object)
+import bmesh
+bm = bmesh.new()
+bmesh.ops.create_icosphere(bm, subdivisions=2, radius=P["spin_radius"])
+spin_mesh = bpy.data.meshes.new("spinner")
+bm.to_mesh(spin_mesh)
+bm.free()
+spin_mesh.polygons.foreach_set("use_smooth", [True] * len(spin_mesh.polygons))
+spin_mesh.update()
+spin_mesh.materials.append(material("Brass", "itu:metal"))
+spin = bpy.data.objects.new("spinner", spin_mesh)
+spin.location = P["spin_location"]
+scene.collection.objects.link(spin)
+spin.rotation_mode = "AXIS_ANGLE"
+for f, ang in ((f0, 0.0), (f1, math.radians(P["spin_angle_deg"]))):
+    spin.rotation_axis_angle = (ang, *P["spin_axis"])
+    spin.keyframe_insert("rotation_axis_angle", frame=f)
+make_linear(spin)
+
 bpy.ops.wm.save_as_mainfile(filepath=out + "/good.blend")
 facts = {}
 
@@ -313,16 +340,24 @@ def test_layout_materials_and_shared_static_meshes(anim):
     assert anim.fps == FPS and anim.num_frames == FRAMES[1] - FRAMES[0] + 1
     assert np.allclose(anim.times, np.arange(anim.num_frames) / FPS)
     # moving objects only in the manifest; the room is split per material and stays static
-    assert sorted(anim.object_names) == ["arm", "box", "flag"]
+    assert sorted(anim.object_names) == ["arm", "box", "flag", "spinner"]
     shapes = anim.frame_xml(0).shapes
-    assert sorted(shapes) == ["arm", "box", "flag", "room/Concrete", "room/itu_plasterboard"]
+    assert sorted(shapes) == ["arm", "box", "flag", "room/Concrete", "room/itu_plasterboard", "spinner"]
     for name in ("room/Concrete", "room/itu_plasterboard"):
         files = {anim.frame_xml(i).shapes[name].filename for i in range(anim.num_frames)}
         assert len(files) == 1 and next(iter(files)).parent.name == "meshes"
-    for name in ("box", "arm", "flag"):
+        assert all(np.array_equal(anim.frame_xml(i).shapes[name].to_world, np.eye(4)) for i in range(anim.num_frames))
+    for name in ("box", "spinner"):   # rigid: one mesh, a transform per frame (also in the manifest)
+        files = {anim.frame_xml(i).shapes[name].filename for i in range(anim.num_frames)}
+        assert len(files) == 1
+        assert len({anim.frame_xml(i).shapes[name].to_world.tobytes() for i in range(anim.num_frames)}) == \
+            anim.num_frames
+        assert all(np.array_equal(anim.frame(i).transforms[name], anim.frame_xml(i).shapes[name].to_world)
+                   for i in range(anim.num_frames))
+    for name in ("arm", "flag"):      # deforming: a mesh per frame
         files = {anim.frame_xml(i).shapes[name].filename for i in range(anim.num_frames)}
         assert len(files) == anim.num_frames
-    assert len(list((anim.path / "meshes").glob("*.ply"))) == 2 + 3 * anim.num_frames
+    assert len(list((anim.path / "meshes").glob("*.ply"))) == 2 + 2 + 2 * anim.num_frames
     # radio materials: property, naming rule, JSON dict, skin; no id Sionna would replace
     mats = {shape.name: shape.material for shape in shapes.values()}
     assert (mats["room/Concrete"].kind, mats["room/Concrete"].itu_type) == ("itu", "concrete")
@@ -334,9 +369,44 @@ def test_layout_materials_and_shared_static_meshes(anim):
     arm_bsdf = root.find(f"bsdf[@id='{mats['arm'].id}']")
     props = {c.attrib["name"]: float(c.attrib["value"]) for c in arm_bsdf}
     assert props == {"relative_permittivity": 5.0, "conductivity": 0.1, "scattering_coefficient": 0.3}
-    for shape in root.iter("shape"):
-        assert shape.find("boolean[@name='face_normals']").attrib["value"] == "true"
+    for name, shape in shapes.items():   # vertex normals where Blender shades smooth: Mitsuba then uses them
+        has_normals = read_ply(shape.filename).vertex_normals is not None
+        assert shape.face_normals == (not has_normals), name
+    assert not shapes["spinner"].face_normals
     anim.check_frequency(77e9)
+
+
+def test_rigid_spinner_written_once_with_its_rotation_and_normals(anim):
+    """The turning icosphere: its to_world is the keyframed rotation about its centre, its angular
+    velocity the constant rate about the axis, every vertex's velocity omega x (x - c), and its PLY
+    carries Blender's (smooth) vertex normals, turned with the mesh.
+
+    Tolerances: the rotation is fitted to float32 vertices 0.15 m from the axis, so it is good to
+    EXACT_POSITION_TOL / r; the angular velocity differences two such rotations over 2 delta (one
+    frame: a constant rate is differenced exactly); the normals of an icosphere are within its
+    facets' half angle (about 9 deg at 2 subdivisions) of the radial direction."""
+    axis = np.asarray(PARAMS["spin_axis"], float)
+    axis /= np.linalg.norm(axis)
+    rate = math.radians(PARAMS["spin_angle_deg"]) / ((FRAMES[1] - FRAMES[0]) / FPS)
+    radius, centre = PARAMS["spin_radius"], np.asarray(PARAMS["spin_location"], float)
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    rotation_tol = EXACT_POSITION_TOL / radius
+    ply = read_ply((anim.path / "meshes" / "spinner.ply"))
+    assert ply.vertex_normals is not None
+    for i in range(anim.num_frames):
+        angle = rate * anim.times[i]
+        expected = np.eye(3) + math.sin(angle) * k + (1 - math.cos(angle)) * k @ k
+        motion = anim.motion(i, "spinner")
+        assert np.max(np.abs(motion.rotation - expected)) < rotation_tol
+        omega_tol = 2 * rotation_tol / (1 / FPS) if 0 < i < anim.num_frames - 1 else 2 * rotation_tol / (0.5 / FPS)
+        assert np.linalg.norm(motion.angular_velocity - rate * axis) < omega_tol
+        mesh = anim.mesh(i, "spinner")
+        assert np.max(np.abs(mesh.centroid - centre)) < EXACT_POSITION_TOL
+        field = np.cross(rate * axis, mesh.vertices - mesh.centroid)
+        assert np.max(np.abs(mesh.vertex_velocities - field)) < omega_tol * radius + EXACT_VELOCITY_TOL
+        normals = ply.vertex_normals @ motion.rotation.T
+        radial = (mesh.vertices - centre) / np.linalg.norm(mesh.vertices - centre, axis=1, keepdims=True)
+        assert np.min(np.einsum("ij,ij->i", normals, radial)) > math.cos(math.radians(10.0))
 
 
 def test_box_translation_matches_keyframes(anim):
@@ -444,7 +514,7 @@ def test_addon_operator_exports(blend_dir):
     facts = json.loads((blend_dir / "facts.json").read_text())
     assert facts["operator"] == ["FINISHED"]
     anim = load_animation(blend_dir / "operator_anim")
-    assert anim.num_frames == 2 and sorted(anim.object_names) == ["arm", "box", "flag"]
+    assert anim.num_frames == 2 and sorted(anim.object_names) == ["arm", "box", "flag", "spinner"]
 
 
 def test_exporter_uses_the_shared_writers_and_escapes_names(blend_dir):

@@ -13,7 +13,9 @@ This docstring is the data contract of the directory::
      "fps": 24.0,
      "radar": {"position": [x, y, z], "orientation": [yaw, pitch, roll]},
      "frames": [{"index": 0, "time": 0.0, "xml": "frames/0000.xml",
-                 "objects": {"<name>": {"velocity": [vx, vy, vz]}}}]}
+                 "objects": {"<name>": {"velocity": [vx, vy, vz]},
+                             "<rigid name>": {"velocity": [vx, vy, vz], "angular_velocity": [wx, wy, wz],
+                                              "to_world": [16 numbers, row by row]}}}]}
 
 * Frame ``i`` starts at :math:`t_i = i/\mathrm{fps}` (s). ``radar`` is the default radar pose:
   position (m, world) and orientation (yaw, pitch, roll) (rad, Sionna's
@@ -22,15 +24,26 @@ This docstring is the data contract of the directory::
 * Shapes are ``<shape type="ply" id="mesh-<name>">`` with a radio material (``itu-radio-material``,
   ``radio-material`` or sionnafmcw's ``skin-radio-material``, see :mod:`sionnafmcw.materials`);
   ``<name>`` is the object name of the manifest and of the run store's truth.
-* An object's manifest ``velocity`` is its linear velocity (m/s, world frame) in that frame. A PLY
-  may carry per-vertex velocities ``vx, vy, vz`` (m/s, world frame); where it does, Doppler is
-  computed from them at the interaction points (deforming bodies, rotating parts).
+* An object's manifest ``velocity`` is the linear velocity (m/s, world frame) of its area-weighted
+  centroid in that frame (the point the run store's truth follows). A PLY may carry per-vertex
+  velocities ``vx, vy, vz`` (m/s, world frame); where it does, Doppler is computed from them at the
+  interaction points (deforming meshes).
+* **Rigid objects** are stored once: one PLY, in the object's own frame, referenced by every frame
+  XML with that frame's ``<transform name="to_world"><matrix value="..."/></transform>`` (a proper
+  rotation :math:`\mathbf R` and a translation :math:`\mathbf p`). The manifest gives, besides the
+  centroid's ``velocity`` :math:`\mathbf v_c`, the ``angular_velocity`` :math:`\boldsymbol\omega`
+  (rad/s, world, :math:`\dot{\mathbf R} = [\boldsymbol\omega]_\times\mathbf R`) and, optionally, the
+  same ``to_world`` (checked against the XML). Every point moves at
+  :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)`, exactly (:mod:`.rigid`). Such a
+  PLY carries no ``vx, vy, vz``; it may carry vertex normals ``nx, ny, nz`` (its own frame).
 
 Rooms, one job each:
 
 * :mod:`.ply` -- PLY meshes, read and write (numpy only);
 * :mod:`.frame_xml` -- the Mitsuba XML of a frame, read (:class:`ParsedFrameXml`) and write (numpy only);
 * :mod:`.model` -- :class:`Animation`, :class:`RadarPose`, :class:`Frame`, :class:`Mesh`;
+* :mod:`.rigid` -- :class:`RigidMotion` (a rigid object's transform and velocity field), the rigid
+  fit (Kabsch) and the angular velocity of two rotations;
 * :mod:`.manifest` -- :func:`load_animation` (checks everything it can without ray tracing and
   raises an :class:`AnimationError` naming the file and field that is wrong) and
   :func:`write_animation`.
@@ -40,13 +53,15 @@ no Sionna) imports its writers.
 """
 
 from .errors import AnimationError
-from .frame_xml import ParsedFrameXml, ShapeInfo, frame_xml_text, parse_frame_xml, write_frame_xml
+from .frame_xml import ParsedFrameXml, ShapeInfo, frame_xml_text, matrix_ops, parse_frame_xml, write_frame_xml
 from .manifest import FORMAT, TIME_TOLERANCE, load_animation, write_animation
 from .model import Animation, Frame, Mesh, RadarPose
 from .ply import PlyData, ply_bytes, read_ply, write_ply
+from .rigid import RIGID_TOLERANCE, RigidMotion, angular_velocity, rigid_fit, transform_matrix
 
 __all__ = [
-    "FORMAT", "TIME_TOLERANCE", "Animation", "AnimationError", "Frame", "Mesh", "ParsedFrameXml", "PlyData",
-    "RadarPose", "ShapeInfo", "frame_xml_text", "load_animation", "parse_frame_xml", "ply_bytes", "read_ply",
-    "write_animation", "write_frame_xml", "write_ply",
+    "FORMAT", "RIGID_TOLERANCE", "TIME_TOLERANCE", "Animation", "AnimationError", "Frame", "Mesh", "ParsedFrameXml",
+    "PlyData", "RadarPose", "RigidMotion", "ShapeInfo", "angular_velocity", "frame_xml_text", "load_animation",
+    "matrix_ops", "parse_frame_xml", "ply_bytes", "read_ply", "rigid_fit", "transform_matrix", "write_animation",
+    "write_frame_xml", "write_ply",
 ]

@@ -228,8 +228,10 @@ def frame_xml_text(shapes: list, materials: dict | None = None) -> str:
     """The Mitsuba scene XML of one frame (every attribute value XML-escaped).
 
     ``shapes``: list of dicts ``{"name", "ply" (path relative to the XML), "material" (id),
-    optional "to_world" (list of (op, attrs) like ("translate", {"x": "1"}))}``, written as
-    ``<shape type="ply" id="mesh-<name>">`` with ``face_normals`` on. ``materials``:
+    optional "to_world" (list of (op, attrs) like ("translate", {"x": "1"}); a 4x4 matrix gives
+    :func:`matrix_ops`), optional "face_normals" (default True)}``, written as
+    ``<shape type="ply" id="mesh-<name>">``; ``face_normals`` false lets Mitsuba shade with the
+    PLY's vertex normals. ``materials``:
     ``{id: (bsdf type, {prop: value})}`` written as top-level BSDFs; a ``str`` value is a
     ``<string>``, a ``bool`` a ``<boolean>``, a number a ``<float>`` (``repr`` of the float, so
     it reads back bit for bit), e.g.
@@ -248,7 +250,10 @@ def frame_xml_text(shapes: list, materials: dict | None = None) -> str:
     for s in shapes:
         lines.append(f'    <shape type="ply" id="mesh-{a(s["name"])}">')
         lines.append(f'        <string name="filename" value="{a(s["ply"])}"/>')
-        lines.append('        <boolean name="face_normals" value="true"/>')
+        face = "true" if s.get("face_normals", True) else "false"
+        lines.append(f'        <boolean name="face_normals" value="{face}"/>')
+        if s.get("to_world") is not None and not isinstance(s["to_world"], (list, tuple)):
+            s = dict(s, to_world=matrix_ops(s["to_world"]))
         if s.get("to_world"):
             lines.append('        <transform name="to_world">')
             for op, attrs in s["to_world"]:
@@ -261,6 +266,15 @@ def frame_xml_text(shapes: list, materials: dict | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
+def matrix_ops(matrix) -> list:
+    """The ``to_world`` operations of a 4x4 matrix: one ``<matrix>`` with its 16 numbers row by row
+    (``repr`` of each float, so the XML reads back bit for bit)."""
+    m = np.asarray(matrix, dtype=float)
+    if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+        raise ValueError(f"to_world must be a finite 4x4 matrix, got shape {m.shape}")
+    return [("matrix", {"value": " ".join(repr(float(x)) for x in m.ravel())})]
+
+
 def write_frame_xml(path, shapes: list, materials: dict | None = None) -> Path:
     """Write :func:`frame_xml_text` to ``path`` (parent folders created); returns the path."""
     path = Path(path)
@@ -269,4 +283,5 @@ def write_frame_xml(path, shapes: list, materials: dict | None = None) -> Path:
     return path
 
 
-__all__ = ["ParsedFrameXml", "ShapeInfo", "frame_xml_text", "parse_frame_xml", "write_frame_xml", "xml_attribute"]
+__all__ = ["ParsedFrameXml", "ShapeInfo", "frame_xml_text", "matrix_ops", "parse_frame_xml", "write_frame_xml",
+           "xml_attribute"]

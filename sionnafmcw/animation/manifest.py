@@ -20,6 +20,10 @@ from .ply import read_ply_cached
 FORMAT = "sionnafmcw-animation/1"
 #: Largest difference (s) between a frame's ``time`` and ``index / fps``.
 TIME_TOLERANCE = 1e-6
+#: Largest difference between an object's manifest ``to_world`` and its frame XML's (the writers
+#: write both from the same float64 numbers with ``repr``, so they agree exactly; a hand-written
+#: manifest may round): 1 nm in the translation, 1e-9 in the rotation.
+TRANSFORM_TOLERANCE = 1e-9
 
 
 def _vector(value, n, where) -> np.ndarray:
@@ -99,13 +103,21 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
         objects_raw = fr.get("objects", {})
         if not isinstance(objects_raw, dict):
             raise AnimationError(f"{fw}.objects must be an object {{name: {{velocity: [vx, vy, vz]}}}}")
-        objects = {}
+        objects, spins, transforms = {}, {}, {}
         for name, spec in objects_raw.items():
             ow = f"{fw}.objects[{name!r}]"
             if not isinstance(spec, dict) or "velocity" not in spec:
                 raise AnimationError(f"{ow} must be an object with a 'velocity'")
+            unknown = sorted(set(spec) - {"velocity", "angular_velocity", "to_world"})
+            if unknown:
+                raise AnimationError(f"{ow} has unknown field(s) {', '.join(unknown)}; known: velocity, "
+                                     "angular_velocity, to_world")
             objects[name] = _vector(spec["velocity"], 3, f"{ow}.velocity")
-        frames.append(Frame(idx, float(t), xml_path, objects))
+            if "angular_velocity" in spec:
+                spins[name] = _vector(spec["angular_velocity"], 3, f"{ow}.angular_velocity")
+            if "to_world" in spec:
+                transforms[name] = _vector(spec["to_world"], 16, f"{ow}.to_world").reshape(4, 4)
+        frames.append(Frame(idx, float(t), xml_path, objects, spins, transforms))
 
     anim = Animation(root, fps, frames, radar_pose, manifest)
     checked_plys = set()
@@ -117,11 +129,25 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
                     f"{where}: frames[{fr.index}].objects[{name!r}] has a velocity but {fr.xml} has no shape "
                     f"'mesh-{name}' (shapes: {', '.join(s.id for s in parsed.shapes.values()) or 'none'})"
                 )
+        for name, matrix in fr.transforms.items():
+            shape = parsed.shapes[name]
+            if not np.allclose(matrix, shape.to_world, rtol=0.0, atol=TRANSFORM_TOLERANCE):
+                raise AnimationError(
+                    f"{where}: frames[{fr.index}].objects[{name!r}].to_world differs from the to_world of shape "
+                    f"{shape.id!r} in {fr.xml} (largest difference {np.max(np.abs(matrix - shape.to_world)):.3g}); "
+                    "write the same transform in both, or leave it out of the manifest")
         if check_meshes:
             for shape in parsed.shapes.values():
                 if shape.type == "ply" and shape.filename not in checked_plys:
                     read_ply_cached(shape.filename)
                     checked_plys.add(shape.filename)
+            for name in fr.angular_velocities:
+                shape = parsed.shapes[name]
+                if shape.type == "ply" and read_ply_cached(shape.filename).vertex_velocities is not None:
+                    raise AnimationError(
+                        f"{where}: frames[{fr.index}].objects[{name!r}] has an angular_velocity and its mesh "
+                        f"{shape.filename} carries per-vertex velocities vx, vy, vz: give one or the other (a rigid "
+                        "object's velocity field is its velocity and angular velocity)")
     return anim
 
 
@@ -129,7 +155,9 @@ def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict
     """Write ``animation.json`` for frames already on disk; returns its path.
 
     ``frames``: list of dicts ``{"xml": relative path, "objects": {name: velocity [3]}}`` (index
-    and time ``index / fps`` are filled in). ``radar_pose``: a :class:`RadarPose`, a dict
+    and time ``index / fps`` are filled in); an object's entry may also be a dict ``{"velocity",
+    "angular_velocity", "to_world"}`` (a rigid object: :mod:`.rigid`; ``to_world`` a 4x4 that must
+    equal the frame XML's). ``radar_pose``: a :class:`RadarPose`, a dict
     ``{"position", "orientation"}`` or ``(position, orientation)``. ``extra``: further top-level
     fields (e.g. ``"source"``, ``"scenario"``; the loader ignores fields it does not know).
     """
@@ -147,7 +175,7 @@ def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict
                                  "orientation": [float(x) for x in radar_pose[1]]}
     manifest["frames"] = [
         {"index": i, "time": i / float(fps), "xml": f["xml"],
-         "objects": {n: {"velocity": [float(x) for x in v]} for n, v in f.get("objects", {}).items()}}
+         "objects": {n: _object_entry(v) for n, v in f.get("objects", {}).items()}}
         for i, f in enumerate(frames)
     ]
     manifest.update(extra or {})
@@ -156,4 +184,16 @@ def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict
     return out
 
 
-__all__ = ["FORMAT", "TIME_TOLERANCE", "load_animation", "write_animation"]
+def _object_entry(value) -> dict:
+    """The manifest entry of one object: a velocity [3], or a dict of velocity, angular velocity, to_world."""
+    if not isinstance(value, dict):
+        return {"velocity": [float(x) for x in np.asarray(value, float).reshape(3)]}
+    entry = {"velocity": [float(x) for x in np.asarray(value["velocity"], float).reshape(3)]}
+    if value.get("angular_velocity") is not None:
+        entry["angular_velocity"] = [float(x) for x in np.asarray(value["angular_velocity"], float).reshape(3)]
+    if value.get("to_world") is not None:
+        entry["to_world"] = [float(x) for x in np.asarray(value["to_world"], float).reshape(16)]
+    return entry
+
+
+__all__ = ["FORMAT", "TIME_TOLERANCE", "TRANSFORM_TOLERANCE", "load_animation", "write_animation"]

@@ -3,7 +3,10 @@ r"""The animation model: :class:`Animation` (frames, times, objects, meshes in w
 :func:`sionnafmcw.animation.load_animation`; the directory layout is in :mod:`sionnafmcw.animation`.
 
 Frame XMLs (:mod:`.frame_xml`) and PLYs (:mod:`.ply`) are read lazily, with small caches, so a long
-animation loads quickly. Vertex velocities in a PLY are world-frame and are not transformed.
+animation loads quickly. Vertex velocities in a PLY are world-frame and are not transformed. A
+rigid object (one PLY for every frame, placed by the frame's ``to_world``) has its motion in
+:meth:`Animation.motion` (:class:`~.rigid.RigidMotion`) and, where it turns, the exact velocity
+field :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)` as its mesh's vertex velocities.
 """
 
 from __future__ import annotations
@@ -16,6 +19,7 @@ import numpy as np
 from .errors import AnimationError
 from .frame_xml import ParsedFrameXml, parse_frame_xml
 from .ply import read_ply_cached
+from .rigid import RigidMotion, area_centroid, proper_rotation
 
 #: Parsed frame XMLs an :class:`Animation` keeps (the cache is emptied when it is full): a few kB
 #: each, and more than the frames of one CPI sequence, so that the engines' passes over all frames
@@ -36,12 +40,17 @@ class RadarPose:
 
 @dataclass(frozen=True)
 class Frame:
-    """One frame: ``index``, start ``time`` (s), ``xml`` path and ``objects`` {name: velocity [3] (m/s)}."""
+    """One frame: ``index``, start ``time`` (s), ``xml`` path, ``objects`` {name: velocity [3] (m/s) of
+    the object's area-weighted centroid}, ``angular_velocities`` {name: [3] (rad/s, world)} of the
+    objects whose manifest entry has one, and ``transforms`` {name: 4x4 ``to_world``} of those whose
+    entry repeats the frame XML's transform (checked against it when the animation is loaded)."""
 
     index: int
     time: float
     xml: Path
     objects: dict = field(default_factory=dict)
+    angular_velocities: dict = field(default_factory=dict)
+    transforms: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -82,6 +91,7 @@ class Animation:
         self.radar_pose = radar_pose
         self.manifest = manifest
         self._frame_xml_cache: dict = {}
+        self._local_centroids: dict = {}   # PLY path -> area-weighted centroid of the PLY's own vertices
 
     # ------------------------------------------------------------------ basic facts
     @property
@@ -129,8 +139,7 @@ class Animation:
             self._frame_xml_cache[xml] = parse_frame_xml(xml)
         return self._frame_xml_cache[xml]
 
-    def mesh(self, frame_index: int, name: str) -> Mesh:
-        """World-space mesh of object ``name`` in a frame (XML transform applied)."""
+    def _ply_shape(self, frame_index: int, name: str):
         shapes = self.frame_xml(frame_index).shapes
         if name not in shapes:
             raise KeyError(f"frame {frame_index} ({self.frame(frame_index).xml}) has no shape 'mesh-{name}'")
@@ -138,11 +147,47 @@ class Animation:
         if info.type != "ply":
             raise AnimationError(f"{self.frame(frame_index).xml}: shape {info.id!r} is of type {info.type!r}; "
                                  "only PLY meshes can be read")
+        return info
+
+    def _local_centroid(self, filename) -> np.ndarray:
+        """Area-weighted centroid of a PLY's own vertices (cached per file)."""
+        if filename not in self._local_centroids:
+            ply = read_ply_cached(filename)
+            self._local_centroids[filename] = area_centroid(ply.vertices, ply.faces)
+        return self._local_centroids[filename]
+
+    def mesh(self, frame_index: int, name: str) -> Mesh:
+        r"""World-space mesh of object ``name`` in a frame (XML transform applied).
+
+        Vertex velocities: the PLY's ``vx, vy, vz`` where it has them; else, for an object with a
+        non-zero manifest ``angular_velocity``, the rigid field of :meth:`motion`
+        (:math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)`, exact); else None (the
+        object translates with its manifest velocity)."""
+        info = self._ply_shape(frame_index, name)
         ply = read_ply_cached(info.filename)
         v = ply.vertices
         if not np.allclose(info.to_world, np.eye(4)):
             v = v @ info.to_world[:3, :3].T + info.to_world[:3, 3]
-        return Mesh(name, v, ply.faces, ply.vertex_velocities)
+        velocities = ply.vertex_velocities
+        omega = self.frame(frame_index).angular_velocities.get(name)
+        if velocities is None and omega is not None and np.any(omega != 0):
+            motion = self.motion(frame_index, name)
+            centroid = motion.centroid if motion is not None else Mesh(name, v, ply.faces, None).centroid
+            velocities = self.object_velocity(frame_index, name) + np.cross(omega, v - centroid)
+        return Mesh(name, v, ply.faces, velocities)
+
+    def motion(self, frame_index: int, name: str) -> RigidMotion | None:
+        """The rigid motion of ``name`` in a frame: its ``to_world`` (a proper rotation and a
+        translation), its centroid's velocity, its angular velocity (zero when the manifest gives
+        none) and its centroid; None when the frame's ``to_world`` scales or shears the mesh."""
+        info = self._ply_shape(frame_index, name)
+        rt = proper_rotation(info.to_world)
+        if rt is None:
+            return None
+        rotation, translation = rt
+        return RigidMotion(rotation, translation, self.object_velocity(frame_index, name),
+                           self.angular_velocity(frame_index, name),
+                           rotation @ self._local_centroid(info.filename) + translation)
 
     def object_positions(self, frame_index: int, names=None) -> dict:
         """``{name: area-weighted centroid [3]}`` (m, world) of the objects' meshes in a frame.
@@ -150,15 +195,29 @@ class Animation:
         ``names`` defaults to :attr:`object_names`.
         """
         names = self.object_names if names is None else names
-        return {n: self.mesh(frame_index, n).centroid for n in names}
+        out = {}
+        for n in names:
+            info = self._ply_shape(frame_index, n)
+            if np.array_equal(info.to_world, np.eye(4)):
+                out[n] = self.mesh(frame_index, n).centroid
+            else:   # the PLY's own centroid, placed: a rotation and translation keep the area weights
+                m = info.to_world
+                scaled = proper_rotation(m) is None
+                out[n] = self.mesh(frame_index, n).centroid if scaled else \
+                    m[:3, :3] @ self._local_centroid(info.filename) + m[:3, 3]
+        return out
 
     def vertex_velocities(self, frame_index: int, name: str) -> np.ndarray | None:
         """Per-vertex velocities ``[V, 3]`` (m/s, world) of ``name`` in a frame, or None."""
         return self.mesh(frame_index, name).vertex_velocities
 
     def object_velocity(self, frame_index: int, name: str) -> np.ndarray:
-        """Manifest velocity of ``name`` in a frame (zeros when not listed)."""
+        """Manifest velocity of ``name`` (of its area-weighted centroid) in a frame (zeros when not listed)."""
         return np.asarray(self.frame(frame_index).objects.get(name, np.zeros(3)), dtype=float)
+
+    def angular_velocity(self, frame_index: int, name: str) -> np.ndarray:
+        """Manifest angular velocity (rad/s, world) of ``name`` in a frame (zeros when not given)."""
+        return np.asarray(self.frame(frame_index).angular_velocities.get(name, np.zeros(3)), dtype=float)
 
     def materials(self) -> dict:
         """``{material id: MaterialSpec}`` over all frames."""

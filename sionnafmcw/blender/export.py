@@ -42,10 +42,18 @@ What is written
 ``OUT/animation.json``, ``OUT/frames/NNNN.xml`` (one Mitsuba scene per exported frame, frame
 index ``i = f - A`` at time :math:`t_i = i / \mathrm{fps}`, ``fps = scene.render.fps /
 scene.render.fps_base``) and ``OUT/meshes/*.ply`` (binary little-endian: ``vertex`` x y z
-float [+ vx vy vz float], ``face`` list uchar int). A mesh file is written once per distinct
-content: an object whose evaluated world geometry never changes has one file,
-``meshes/<name>.ply``, shared by all frames; a moving one has ``meshes/<name>_NNNN.ply`` (NNNN:
-the first frame that uses it). The export goes to a hidden sibling directory that is renamed to
+float [+ nx ny nz float] [+ vx vy vz float], ``face`` list uchar int). A mesh file is written
+once per distinct content: an object whose evaluated world geometry never changes has one file,
+``meshes/<name>.ply``, shared by all frames; a **rigid** object -- one whose evaluated mesh is in
+every frame a rigid motion of its first exported frame, to :data:`RIGID_TOLERANCE` (1e-5 m, see
+:mod:`sionnafmcw.animation.rigid`: ten float32 roundings at 10 m, 0.03 rad of two-way phase at
+77 GHz) by Kabsch's fit -- has one file too, the first frame's mesh, placed in every frame by a
+``to_world`` matrix (a limb parented to a bone, a door, a car body: the mesh is written once and
+the engines need not rebuild it per frame); a deforming one has ``meshes/<name>_NNNN.ply`` (NNNN:
+the first frame that uses it). A mesh that is smooth-shaded in Blender (every corner normal equal
+to its vertex normal: no sharp edges or split normals) carries its vertex normals (world frame of
+its first frame for a rigid object; ``face_normals`` is then off in the XML): the surface those
+normals describe is what physical optics renders, whatever the tessellation. The export goes to a hidden sibling directory that is renamed to
 ``OUT`` at the end (:func:`sionnafmcw.fs.atomic_directory`), so a failed export leaves nothing
 half-written (an existing ``OUT`` is replaced only when it is empty or an earlier animation
 directory).
@@ -120,8 +128,12 @@ within :math:`\pm h`, e.g. LINEAR keyframes away from a kink.
   takes as an object's truth position). The manifest lists every object that moves in some
   exported frame (a distinct mesh in some frame or a non-zero velocity), in every frame; objects
   that never move are not listed.
-* Vertex velocity (PLY ``vx vy vz``): the same difference per vertex, written in every frame
-  where the field is not uniform, i.e. the mesh deforms or rotates (:math:`\max_i \|\mathbf v_i -
+* Rigid objects: the manifest also gets the ``angular_velocity``
+  :math:`\boldsymbol\omega = \log(\mathbf R(f+h)\mathbf R(f-h)^T)^\vee/(2\Delta)` of the fitted rotations
+  at :math:`f \pm h` and the frame's ``to_world``; every point then moves at
+  :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)` (no per-vertex velocities).
+* Vertex velocity (PLY ``vx vy vz``) of a deforming object: the same difference per vertex, written in
+  every frame where the field is not uniform, i.e. the mesh deforms or rotates (:math:`\max_i \|\mathbf v_i -
   \bar{\mathbf v}\| > 10^{-4}` m/s, 1/700 of a 7 cm/s Doppler bin). A mesh that only translates (or
   stands still) gets no per-vertex velocity: the simulator uses the manifest velocity, which is
   then the same for every point of it.
@@ -176,6 +188,7 @@ _put_sionnafmcw_on_path()
 from sionnafmcw.animation.frame_xml import write_frame_xml  # noqa: E402  (after the path set-up above)
 from sionnafmcw.animation.manifest import write_animation  # noqa: E402
 from sionnafmcw.animation.ply import ply_bytes  # noqa: E402
+from sionnafmcw.animation.rigid import RIGID_TOLERANCE, angular_velocity, rigid_fit, transform_matrix  # noqa: E402
 from sionnafmcw.fs import atomic_directory  # noqa: E402
 
 try:  # inside Blender (binary or bpy module); the pure maths below works without it
@@ -409,15 +422,17 @@ def _material_ids(material_names, object_names) -> dict:
 
 # ===================================================================================== evaluation
 class _Part:
-    """One exported shape in one evaluated sample: world vertices, triangles, its material."""
+    """One exported shape in one evaluated sample: world vertices, triangles, its material and, for a
+    smooth-shaded mesh, its world vertex normals."""
 
-    __slots__ = ("vertices", "triangles", "material", "radio")
+    __slots__ = ("vertices", "triangles", "material", "radio", "normals")
 
-    def __init__(self, vertices, triangles, material, radio):
+    def __init__(self, vertices, triangles, material, radio, normals=None):
         self.vertices = vertices      # [V, 3] float64, world (m)
         self.triangles = triangles    # [F, 3] int32
         self.material = material      # Blender material name
         self.radio = radio            # (bsdf type, {prop: (xml tag, value)})
+        self.normals = normals        # [V, 3] unit world vertex normals, or None (flat or split normals)
 
     def centroid(self) -> np.ndarray:
         """Area-weighted surface centroid (vertex mean for a mesh without area)."""
@@ -454,8 +469,34 @@ def _materials_of(obj, mesh) -> list:
     return out
 
 
+#: Largest difference between a corner normal and its vertex normal for a mesh to count as smooth
+#: (one normal per vertex): 1e-4, well above float32 rounding and below any real split or sharp edge.
+SMOOTH_NORMAL_TOLERANCE = 1e-4
+
+
+def _smooth_vertex_normals(mesh, nv):
+    """Unit vertex normals ``[V, 3]`` (object space) of a mesh whose every corner normal equals its
+    vertex normal (smooth shading, no sharp edges or custom split normals), else None: such a mesh's
+    surface is the smooth one its normals describe, which the engines rebuild for physical optics."""
+    try:
+        nl = len(mesh.loops)
+        loop_vertex = np.empty(nl, dtype=np.int32)
+        mesh.loops.foreach_get("vertex_index", loop_vertex)
+        corner = np.empty(3 * nl, dtype=np.float32)
+        mesh.corner_normals.foreach_get("vector", corner)
+        vertex = np.empty(3 * nv, dtype=np.float32)
+        mesh.vertex_normals.foreach_get("vector", vertex)
+    except AttributeError:   # a Blender without corner_normals (< 4.1): no normals, the engine smooths by angle
+        return None
+    corner, vertex = corner.reshape(-1, 3), vertex.reshape(-1, 3)
+    if nl == 0 or np.max(np.abs(corner - vertex[loop_vertex])) > SMOOTH_NORMAL_TOLERANCE:
+        return None
+    return vertex.astype(float)
+
+
 def _mesh_arrays(obj, matrix_world):
-    """World vertices [V,3] float64, triangles [F,3] int32, material index [F] of an evaluated object."""
+    """World vertices [V,3] float64, triangles [F,3] int32, material index [F] of an evaluated object,
+    and its world vertex normals [V,3] where it is smooth-shaded (:func:`_smooth_vertex_normals`)."""
     mesh = obj.to_mesh()
     try:
         nv = len(mesh.vertices)
@@ -468,11 +509,16 @@ def _mesh_arrays(obj, matrix_world):
         mat_index = np.empty(nt, dtype=np.int32)
         mesh.loop_triangles.foreach_get("material_index", mat_index)
         materials = _materials_of(obj, mesh)
+        normals = _smooth_vertex_normals(mesh, nv)
     finally:
         obj.to_mesh_clear()
     m = np.asarray(matrix_world, dtype=float)
     world = co.reshape(-1, 3).astype(float) @ m[:3, :3].T + m[:3, 3]
-    return world, tri.reshape(-1, 3), mat_index, materials
+    if normals is not None:   # normals transform with the inverse transpose
+        normals = normals @ np.linalg.inv(m[:3, :3])
+        length = np.linalg.norm(normals, axis=1, keepdims=True)
+        normals = normals / np.where(length > 0, length, 1.0) if np.all(length > 0) else None
+    return world, tri.reshape(-1, 3), mat_index, materials, normals
 
 
 def _instance_name(inst) -> str:
@@ -499,7 +545,7 @@ def _evaluate(scene, t: float, radar_obj) -> _Sample:
             if orig.hide_render or orig.name == radar_name:
                 continue
             name = orig.name
-        world, tri, mat_index, materials = _mesh_arrays(ob, inst.matrix_world)
+        world, tri, mat_index, materials, normals = _mesh_arrays(ob, inst.matrix_world)
         if len(tri) == 0:
             continue
         if not materials:
@@ -520,13 +566,14 @@ def _evaluate(scene, t: float, radar_obj) -> _Sample:
                 remap = np.full(len(world), -1, dtype=np.int64)
                 remap[keep] = np.arange(len(keep))
                 v_part, t_part = world[keep], remap[t_part].astype(np.int32)
+                n_part = None if normals is None else normals[keep]
                 part_name = f"{name}/{mat_name}"
             else:
-                v_part, part_name = world, name
+                v_part, n_part, part_name = world, normals, name
             if part_name in parts:
                 raise ExportError(f"two exported shapes would be named {part_name!r} (an object of that name and a "
                                   "part of a multi-material object, or instances); rename one of the objects")
-            parts[part_name] = _Part(v_part, np.ascontiguousarray(t_part), mat_name, specs[mat_name])
+            parts[part_name] = _Part(v_part, np.ascontiguousarray(t_part), mat_name, specs[mat_name], n_part)
     radar_matrix = None
     if radar_obj is not None:
         radar_matrix = np.array(radar_obj.evaluated_get(depsgraph).matrix_world, dtype=float)
@@ -654,9 +701,34 @@ def export_animation(out, frame_start=None, frame_end=None, radar: str | None = 
     finally:
         scene.frame_set(original_frame[0], subframe=original_frame[1])
     log(f"sionnafmcw-export: {out}: {result['frames']} frames at {fps:g} fps, {result['objects']} objects "
-        f"({result['moving']} moving, {result['deforming']} with vertex velocities), {result['files']} PLY files, "
+        f"({result['moving']} moving: {result['rigid']} rigid, {result['deforming']} with vertex velocities), "
+        f"{result['files']} PLY files, "
         f"radar = {radar_desc}, {time.perf_counter() - t0:.1f} s")
     return out
+
+
+class _Rigid:
+    """An object that has been a rigid motion of its first exported mesh in every frame so far."""
+
+    __slots__ = ("reference", "normals", "motions", "radius")
+
+    def __init__(self, part: _Part):
+        self.reference = part.vertices          # [V, 3] world vertices of the first frame (the PLY's frame)
+        self.normals = part.normals             # [V, 3] or None, same frame
+        self.motions = []                       # per frame: (R, p, centroid velocity, angular velocity)
+        self.radius = float(np.max(np.linalg.norm(part.vertices - part.centroid(), axis=1))) if len(
+            part.vertices) else 0.0             # farthest vertex from the centroid (m)
+
+    def spin(self, omega):
+        """``omega``, or zero where it moves no vertex by more than VELOCITY_SPREAD_TOLERANCE (the
+        float32 noise of a translating object's fitted rotations; the rule that gives a translating
+        mesh no vertex velocities)."""
+        return omega if np.linalg.norm(omega) * self.radius > VELOCITY_SPREAD_TOLERANCE else np.zeros(3)
+
+    def fit(self, vertices):
+        """``(R, p)`` of ``vertices`` as a rigid motion of the reference, or None beyond the tolerance."""
+        r, p, residual = rigid_fit(self.reference, vertices)
+        return (r, p) if residual <= RIGID_TOLERANCE else None
 
 
 def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> dict:
@@ -670,15 +742,53 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
         return cache[k]
 
     first = None
-    frames = []                       # per frame: {"shapes": [(name, file key, material)], "objects": {name: v}}
+    frames = []                       # per frame: {"shapes": {name: (kind, data, material)}, "objects": {name: entry}}
     files: dict = {}                  # name -> {sha1: file stem}
     materials_used: dict = {}         # Blender material name -> radio spec
     safe_names: dict = {}
     taken_safe: set = set()
     deforming = set()
     ever_moving = set()
+    rigid: dict = {}                  # name -> _Rigid while every frame so far is a rigid motion of the first
     radar_matrix0 = None
     radar_moves = False
+
+    def safe_name(name):
+        if name not in safe_names:
+            safe = _safe_filename(name)
+            candidate, k = safe, 2
+            while candidate.lower() in taken_safe:
+                candidate = f"{safe}-{k}"
+                k += 1
+            taken_safe.add(candidate.lower())
+            safe_names[name] = candidate
+        return safe_names[name]
+
+    def write_mesh(name, i, vertices, triangles, vertex_velocity, normals):
+        data = ply_bytes(vertices, triangles, vertex_velocity, vertex_normals=normals)
+        digest = hashlib.sha1(data).hexdigest()
+        known = files.setdefault(name, {})
+        if digest not in known:
+            stem = f"{safe_name(name)}_{i:04d}"
+            (tmp / "meshes" / f"{stem}.ply").write_bytes(data)
+            known[digest] = stem
+        return known[digest]
+
+    def unrigid(name, triangles):
+        """``name`` stopped being rigid: its earlier frames become per-frame meshes, placed from the reference
+        (within RIGID_TOLERANCE of the evaluated ones) with the rigid velocity field."""
+        state = rigid.pop(name)
+        for j, (r, p, v_c, omega) in enumerate(state.motions):
+            vertices = state.reference @ r.T + p
+            centroid = _Part(vertices, triangles, None, None).centroid()
+            field = v_c + np.cross(omega, vertices - centroid) if np.any(omega != 0) else None
+            normals = None if state.normals is None else state.normals @ r.T
+            if field is not None:
+                deforming.add(name)
+            kind, _, mat = frames[j]["shapes"][name]
+            frames[j]["shapes"][name] = ("ply", write_mesh(name, j, vertices, triangles, field, normals), mat)
+            frames[j]["objects"][name] = v_c
+
     for f in range(a, b + 1):
         i = f - a
         tp = f - h if f > a else f
@@ -692,6 +802,7 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
             if not sc.parts:
                 raise ExportError(f"frame {f} of scene {scene.name!r} has no exportable geometry (no visible mesh, "
                                   "curve or text objects with triangles)")
+            rigid = {name: _Rigid(part) for name, part in sc.parts.items()}
         else:
             _check_same_topology(first, sc)
         span = (tn - tp) / fps  # seconds between the two samples
@@ -700,43 +811,56 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
                 radar_matrix0 = sc.radar_matrix
             elif np.max(np.abs(sc.radar_matrix - radar_matrix0)) > RADAR_MOTION_TOLERANCE:
                 radar_moves = True
-        shapes, objects = [], {}
+        shapes, objects = {}, {}
         for name in sorted(sc.parts):
             part = sc.parts[name]
-            vel = (sn.parts[name].vertices - sp.parts[name].vertices) / span
             centroid_velocity = (sn.parts[name].centroid() - sp.parts[name].centroid()) / span
+            if materials_used.setdefault(part.material, part.radio) != part.radio:
+                raise ExportError(f"material {part.material!r} maps to two radio materials during the animation "
+                                  "(is its radio_material property animated?)")
+            if np.any(centroid_velocity != 0.0):
+                ever_moving.add(name)
+            if name in rigid:
+                state = rigid[name]
+                now, before, after = (state.fit(x.parts[name].vertices) for x in (sc, sp, sn))
+                if now is not None and before is not None and after is not None:
+                    omega = state.spin(angular_velocity(after[0], before[0], span)) if span > 0 else np.zeros(3)
+                    state.motions.append((now[0], now[1], centroid_velocity, omega))
+                    shapes[name] = ("rigid", len(state.motions) - 1, part.material)
+                    objects[name] = None   # filled in at the end (rigid or not)
+                    continue
+                if state.motions:
+                    unrigid(name, part.triangles)
+                else:
+                    rigid.pop(name)
+            vel = (sn.parts[name].vertices - sp.parts[name].vertices) / span
             spread = float(np.max(np.linalg.norm(vel - vel.mean(axis=0), axis=1))) if len(vel) else 0.0
             vertex_velocity = vel if spread > VELOCITY_SPREAD_TOLERANCE else None
             if vertex_velocity is not None:
                 deforming.add(name)
-            data = ply_bytes(part.vertices, part.triangles, vertex_velocity)
-            digest = hashlib.sha1(data).hexdigest()
-            if name not in safe_names:
-                safe = _safe_filename(name)
-                candidate, k = safe, 2
-                while candidate.lower() in taken_safe:
-                    candidate = f"{safe}-{k}"
-                    k += 1
-                taken_safe.add(candidate.lower())
-                safe_names[name] = candidate
-            known = files.setdefault(name, {})
-            if digest not in known:
-                stem = f"{safe_names[name]}_{i:04d}"
-                (tmp / "meshes" / f"{stem}.ply").write_bytes(data)
-                known[digest] = stem
-            if materials_used.setdefault(part.material, part.radio) != part.radio:
-                raise ExportError(f"material {part.material!r} maps to two radio materials during the animation "
-                                  "(is its radio_material property animated?)")
-            shapes.append((name, known[digest], part.material))
+            shapes[name] = ("ply", write_mesh(name, i, part.vertices, part.triangles, vertex_velocity, part.normals),
+                            part.material)
             objects[name] = centroid_velocity
-            if np.any(centroid_velocity != 0.0):
-                ever_moving.add(name)
         frames.append({"shapes": shapes, "objects": objects})
         # samples before the next frame's first one are no longer needed
         nxt = f + 1 - h
         for k in [k for k in cache if k < key(nxt)]:
             del cache[k]
-    moving = {n for n in files if len(files[n]) > 1} | ever_moving
+    # rigid objects: one PLY (the first frame's mesh) placed by a transform per frame; one that never
+    # moves is a static mesh (no transform)
+    rigid_moving = set()
+    for name, state in rigid.items():
+        still = all(np.allclose(r, np.eye(3), rtol=0, atol=1e-12) and np.allclose(p, 0, rtol=0, atol=1e-12)
+                    and not np.any(v) and not np.any(w) for r, p, v, w in state.motions)
+        stem = write_mesh(name, 0, state.reference, first.parts[name].triangles, None, state.normals)
+        if not still:
+            rigid_moving.add(name)
+        for fr in frames:
+            _, j, mat = fr["shapes"][name]
+            r, p, v_c, omega = state.motions[j]
+            fr["shapes"][name] = ("ply", stem, mat, None if still else transform_matrix(r, p))
+            fr["objects"][name] = {"velocity": v_c, "angular_velocity": omega, "to_world": transform_matrix(r, p)}
+    moving = {n for n in files if len(files[n]) > 1} | ever_moving | rigid_moving
     # final file names: an object with one distinct mesh gets <name>.ply
     rename = {}
     for name, known in files.items():
@@ -748,10 +872,17 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
     all_names = set(files)
     mat_ids = _material_ids(materials_used, all_names)
     xml_materials = {mat_ids[m]: spec for m, spec in sorted(materials_used.items(), key=lambda kv: mat_ids[kv[0]])}
+    has_normals = {name: first.parts[name].normals is not None for name in all_names}
     manifest_frames = []
     for i, fr in enumerate(frames):
-        shapes = [{"name": name, "ply": f"../meshes/{rename.get(stem, stem)}.ply", "material": mat_ids[mat]}
-                  for name, stem, mat in fr["shapes"]]
+        shapes = []
+        for name, entry in sorted(fr["shapes"].items()):
+            stem, mat = entry[1], entry[2]
+            shape = {"name": name, "ply": f"../meshes/{rename.get(stem, stem)}.ply", "material": mat_ids[mat],
+                     "face_normals": not has_normals[name]}
+            if len(entry) > 3 and entry[3] is not None:
+                shape["to_world"] = entry[3]
+            shapes.append(shape)
         used_ids = {s["material"] for s in shapes}
         mats = {mid: (mtype, {k: v for k, (_, v) in props.items()})
                 for mid, (mtype, props) in xml_materials.items() if mid in used_ids}
@@ -771,13 +902,14 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
             "frame_start": a, "frame_end": b,
             "velocity_step_frames": h,
             "radar_object": radar_desc,
+            "rigid_tolerance_m": RIGID_TOLERANCE,
             "materials": {m: {"id": mat_ids[m], "type": spec[0],
                               "properties": {k: v for k, (_, v) in spec[1].items()}}
                           for m, spec in sorted(materials_used.items())},
         },
     })
     return {"frames": len(frames), "objects": len(all_names), "moving": len(moving), "deforming": len(deforming),
-            "files": sum(len(k) for k in files.values())}
+            "rigid": len(rigid_moving), "files": sum(len(k) for k in files.values())}
 
 
 # ===================================================================================== command line

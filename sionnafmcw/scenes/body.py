@@ -107,6 +107,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..animation.rigid import RigidMotion, angular_velocity
 from . import meshes
 from .gait import RV_MAX, BoulicGait, GaitTiming
 
@@ -387,6 +388,20 @@ class WalkingPerson:
                 velocity=(ra @ c_local + oa - rb @ c_local - ob) / (2 * h),
                 vertex_normals=self.local_normals[k] @ r.T,
             )
+        return out
+
+    def segment_motions(self, t: float, h: float = VELOCITY_STEP) -> dict:
+        r"""``{segment: RigidMotion}`` at time ``t``: the segment frame's pose (``rotation``,
+        ``translation``: its ``to_world``), the velocity of its area-weighted centroid and its angular
+        velocity, both central differences of the analytic chain over :math:`\pm h`
+        (:func:`~sionnafmcw.animation.rigid.angular_velocity`); what a rigid animation stores per frame."""
+        now, ahead, behind = self.poses(t), self.poses(t + h), self.poses(t - h)
+        out = {}
+        for k in SEGMENTS:
+            c = self.local_centroids[k]
+            (r, o), (ra, oa), (rb, ob) = now[k], ahead[k], behind[k]
+            out[k] = RigidMotion(r, o, (ra @ c + oa - rb @ c - ob) / (2 * h), angular_velocity(ra, rb, 2 * h),
+                                 r @ c + o)
         return out
 
     def truth(self, times, h: float = VELOCITY_STEP) -> dict:

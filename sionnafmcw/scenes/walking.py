@@ -2,8 +2,10 @@ r"""Walking-person scenarios: ``circle_walk`` (the paper's walking person, measu
 :mod:`sionnafmcw.validation.circle_walk`) and ``straight_walk``.
 
 The person is a :class:`~.body.WalkingPerson` (Boulic-Thalmann gait, :mod:`.gait`; segment
-meshes and kinematic chain, :mod:`.body`), every segment a separate skin object with per-vertex
-velocities in its PLY and its centroid velocity in the manifest. The radar is Sionna's pose
+meshes and kinematic chain, :mod:`.body`), every segment a separate rigid skin object: its mesh
+(with its smooth vertex normals) written once in the segment's own frame, placed per frame by its
+``to_world`` with its centroid velocity and angular velocity in the manifest
+(:mod:`sionnafmcw.animation.rigid`). The radar is Sionna's pose
 ``(yaw, pitch, roll)`` with boresight pointed at the scene's centre of interest.
 
 ``circle_walk``
@@ -23,8 +25,7 @@ velocities in its PLY and its centroid velocity in the manifest. The radar is Si
 
 The body meshes have triangle edges of at most ``body_mesh_edge`` (default
 :data:`~.body.MESH_EDGE`, from the physical-optics convergence study of the body's RCS at 77 GHz,
-``benchmarks/body_rcs.py``); every frame's PLYs carry smooth vertex normals when the animation
-writer passes them on (``vertex_normals`` of each moving object).
+``benchmarks/body_rcs.py``); each segment's PLY carries its smooth vertex normals.
 
 Both put the scene in a closed room (``room=True``, ITU concrete walls, floorboard floor,
 plasterboard ceiling, valid at 77 GHz) large enough for the walk plus ``room_margin``.
@@ -36,6 +37,7 @@ import math
 
 import numpy as np
 
+from ..animation.rigid import transform_matrix
 from .body import MESH_EDGE, SEGMENTS, CircleTrack, LineTrack, WalkingPerson
 from .gait import RV_MAX
 from .registry import Parameter, register
@@ -74,11 +76,12 @@ def write_person(out, person: WalkingPerson, num_frames: int, fps: float, radar_
         add_room(w, room_box[0], room_box[1], wall=opts.get("wall_material", "concrete"),
                  floor=opts.get("floor_material", "floorboard"), ceiling=opts.get("ceiling_material", "plasterboard"),
                  scattering_coefficient=opts.get("wall_scattering", 0.2))
+    for k in SEGMENTS:
+        w.rigid(k, person.local_meshes[k][0], person.faces(k), SKIN, vertex_normals=person.local_normals[k])
     for i in range(num_frames):
-        state = person.segment_state(i / fps)
-        w.frame([{"name": k, "vertices": state[k].vertices, "faces": person.faces(k), "material": SKIN,
-                  "velocity": state[k].velocity, "vertex_velocities": state[k].vertex_velocities,
-                  "vertex_normals": state[k].vertex_normals} for k in SEGMENTS])
+        motions = person.segment_motions(i / fps)
+        w.frame(rigid={k: {"to_world": transform_matrix(m.rotation, m.translation), "velocity": m.velocity,
+                           "angular_velocity": m.angular_velocity} for k, m in motions.items()})
     w.finish(radar_position, look_at_orientation(radar_position, radar_target))
 
 

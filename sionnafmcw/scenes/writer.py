@@ -1,10 +1,12 @@
 r"""Writing animation directories (layout: :mod:`sionnafmcw.animation`) frame by frame, and the radio materials.
 
 :class:`AnimationWriter` keeps the layout every builder shares: static meshes are written once
-to ``meshes/<name>.ply`` and referenced by every frame; a moving object gets
-``meshes/<name>_<frame>.ply`` per frame (with per-vertex velocities ``vx, vy, vz`` when given)
-and its manifest velocity. Shapes are ``mesh-<name>`` with a radio material declared at the top
-of every frame XML.
+to ``meshes/<name>.ply`` and referenced by every frame; a rigid object (a body segment, a door, a
+fan blade) is written once too, in its own frame, and placed per frame by its ``to_world`` with
+its centroid velocity and angular velocity in the manifest (:mod:`sionnafmcw.animation.rigid`);
+a deforming object gets ``meshes/<name>_<frame>.ply`` per frame (with per-vertex velocities
+``vx, vy, vz`` when given) and its manifest velocity. Shapes are ``mesh-<name>`` with a radio
+material declared at the top of every frame XML.
 
 Materials (ids never start with ``mat-itu_``: Sionna would replace such a material with its
 built-in one and drop the ``scattering_coefficient``):
@@ -25,6 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ..animation import RadarPose, write_animation, write_frame_xml, write_ply
+from ..animation.rigid import proper_rotation
 
 SKIN = "mat-skin"
 METAL = "refl-metal"
@@ -56,7 +59,8 @@ def itu_material(itu_type: str, scattering_coefficient: float = 0.0) -> tuple[st
 
 
 class AnimationWriter:
-    """Write an animation directory at ``root``: ``static(...)`` once, ``frame(...)`` per frame, ``finish(...)``."""
+    """Write an animation directory at ``root``: ``static(...)`` and ``rigid(...)`` once, ``frame(...)``
+    per frame, ``finish(...)``."""
 
     def __init__(self, root, fps: float):
         self.root = Path(root)
@@ -65,6 +69,7 @@ class AnimationWriter:
         (self.root / "meshes").mkdir(parents=True, exist_ok=True)
         self.materials: dict = {}
         self._static: list = []
+        self._rigid: dict = {}      # name -> shape dict (ply, material, face_normals)
         self._frames: list = []
         self.static_objects: list[str] = []
 
@@ -80,10 +85,30 @@ class AnimationWriter:
         if truth:
             self.static_objects.append(name)
 
-    def frame(self, moving: list) -> int:
-        """Write the next frame. ``moving``: dicts with ``name, vertices, faces, material, velocity``
-        and optionally ``vertex_velocities`` ([V, 3], m/s, world). Returns the frame index."""
+    def rigid(self, name: str, vertices, faces, material: str, vertex_normals=None) -> None:
+        """A rigid object: its mesh in its own frame (``vertices`` [V, 3] m, optional unit
+        ``vertex_normals`` [V, 3]), written once to ``meshes/<name>.ply``; every :meth:`frame` must
+        then place it (``rigid={name: ...}``)."""
+        self._check_material(material)
+        if name in self._rigid or any(s["name"] == name for s in self._static):
+            raise ValueError(f"AnimationWriter: object {name!r} is declared twice")
+        write_ply(self.root / "meshes" / f"{name}.ply", vertices, faces, vertex_normals=vertex_normals)
+        self._rigid[name] = {"name": name, "ply": f"../meshes/{name}.ply", "material": material,
+                             "face_normals": vertex_normals is None}
+
+    def frame(self, moving: list = (), rigid: dict | None = None) -> int:
+        """Write the next frame. ``moving``: deforming objects, dicts with ``name, vertices, faces,
+        material, velocity`` and optionally ``vertex_velocities`` ([V, 3], m/s, world), written per
+        frame. ``rigid``: ``{name: {"to_world": 4x4, "velocity": [3], "angular_velocity": [3]}}`` for
+        every object declared with :meth:`rigid` (``velocity`` of its area-weighted centroid, m/s;
+        ``angular_velocity`` rad/s, world). Returns the frame index."""
         i = len(self._frames)
+        rigid = rigid or {}
+        missing = sorted(set(self._rigid) - set(rigid))
+        unknown = sorted(set(rigid) - set(self._rigid))
+        if missing or unknown:
+            raise ValueError(f"AnimationWriter.frame: rigid objects without a transform in frame {i}: "
+                             f"{missing or 'none'}; not declared with rigid(): {unknown or 'none'}")
         shapes, objects = [], {}
         for obj in moving:
             name = obj["name"]
@@ -92,6 +117,14 @@ class AnimationWriter:
                       vertex_velocities=obj.get("vertex_velocities"))
             shapes.append({"name": name, "ply": f"../meshes/{name}_{i:04d}.ply", "material": obj["material"]})
             objects[name] = np.asarray(obj["velocity"], dtype=float)
+        for name, motion in rigid.items():
+            matrix = np.asarray(motion["to_world"], dtype=float)
+            if matrix.shape != (4, 4) or proper_rotation(matrix) is None:
+                raise ValueError(f"AnimationWriter.frame: to_world of rigid object {name!r} in frame {i} must be a "
+                                 "4x4 proper rotation and translation")
+            shapes.append(self._rigid[name] | {"to_world": matrix})
+            objects[name] = {"velocity": motion["velocity"],
+                             "angular_velocity": motion.get("angular_velocity", np.zeros(3)), "to_world": matrix}
         for name in self.static_objects:
             objects[name] = np.zeros(3)
         xml = f"frames/{i:04d}.xml"
