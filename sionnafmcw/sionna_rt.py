@@ -306,18 +306,29 @@ def aligned_float64(values, backend=None):
 def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tuple:
     """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` on a Sionna ``scene``.
 
-    Mitsuba's preliminary intersection of the scene's ``mi_scene`` (world frame, the caller's
-    float64 arrays cast to float32). Returns numpy arrays ``(valid [K] bool, t [K], shape_id [K],
-    triangle [K], barycentric [K, 2])``; with ``shading_normals`` also Mitsuba's shading normal of
-    each hit ``[K, 3]`` (the interpolated vertex normal where the mesh has them, else the facet
-    normal; unit, zero where there is no hit).
+    Mitsuba's preliminary intersection of the scene's ``mi_scene`` (:func:`cast_scene`).
+    """
+    return cast_scene(scene.mi_scene, origins, directions, shading_normals)
+
+
+def cast_scene(mi_scene, origins, directions, shading_normals: bool = False, maxt=None) -> tuple:
+    """First hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` on a Mitsuba scene.
+
+    Mitsuba's preliminary intersection (world frame of that scene, the caller's float64 arrays cast
+    to float32), with ``0 <= t <= maxt`` (``[K]``, default unbounded). Returns numpy arrays ``(valid [K] bool, t [K], shape_id [K], triangle [K],
+    barycentric [K, 2])``; ``shape_id`` is the hit shape's pointer reinterpreted as an integer (a
+    Sionna object's ``object_id``); with ``shading_normals`` also Mitsuba's shading normal of each
+    hit ``[K, 3]`` (the interpolated vertex normal where the mesh has them, else the facet normal;
+    unit, zero where there is no hit).
     """
     directions = np.asarray(directions, float)
     k = directions.shape[0]
     origins = np.broadcast_to(np.asarray(origins, float), (k, 3))
     ray = mi.Ray3f(mi.Point3f(*[aligned_float(origins[:, i]) for i in range(3)]),
                    mi.Vector3f(*[aligned_float(directions[:, i]) for i in range(3)]))
-    pi = scene.mi_scene.ray_intersect_preliminary(ray, coherent=True)
+    if maxt is not None:
+        ray.maxt = aligned_float(np.broadcast_to(np.asarray(maxt, float), (k,)))
+    pi = mi_scene.ray_intersect_preliminary(ray, coherent=True)
     valid = pi.is_valid()
     shape_id = dr.reinterpret_array(mi.UInt32, pi.shape)
     outputs = [pi.t, pi.prim_index, pi.prim_uv, shape_id, valid]
@@ -371,6 +382,6 @@ __all__ = [
     "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
     "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
     "VERIFIED_VERSIONS", "aligned_float", "aligned_float64", "antenna_pattern_registry", "array_backend",
-    "cast_rays", "check_versions", "dr", "installed_versions", "load_scene_at",
+    "cast_rays", "cast_scene", "check_versions", "dr", "installed_versions", "load_scene_at",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
 ]

@@ -19,7 +19,7 @@ from sionnafmcw.animation import load_animation
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.engines import PathEngine, PathEngineError
 from sionnafmcw.engines.path import specular_chains
-from sionnafmcw.engines.po_render import curvature_radius, merge_contributions, rigid_motion, shading_normals
+from sionnafmcw.engines.po_render import curvature_radius, merge_contributions, shading_normals
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.scenes import meshes
 from sionnafmcw.scenes.registry import build
@@ -268,10 +268,12 @@ def test_shading_normals_and_curvature():
 def test_flat_shaded_objects_skip_the_normal_interpolation():
     """On an object whose faces have one normal at all corners (the room's axis-aligned planes, a
     box) the hit normal is that normal and the shape operator zero, as interpolated_normals gives,
-    turned with the object; a smoothed ellipsoid is not flat-shaded and keeps the interpolation, and
-    so does a tilted plate whose corner normals differ by rounding (None: either way, same result)."""
+    turned with the object's placement (normal R n, shape operator R K R^T); a smoothed ellipsoid is
+    not flat-shaded and keeps the interpolation, and so does a tilted plate whose corner normals
+    differ by rounding (None: either way, same result)."""
     from animation_helpers import box_mesh
-    from sionnafmcw.engines.po_render import Material, SceneObject, _hit_geometry
+    from sionnafmcw.engines.po_render import Material, SceneObject
+    from sionnafmcw.engines.surfaces import Placement, Surface
     from sionnafmcw.physical_optics import interpolated_normals
 
     rng = np.random.default_rng(3)
@@ -281,57 +283,60 @@ def test_flat_shaded_objects_skip_the_normal_interpolation():
               meshes.ellipsoid((0, 0, 0), (0.1, 0.2, 0.3), n_rings=12, n_segments=24),
               meshes.plate((1, 2, 3), (0.4, 0.4), normal=(0.3, 0.5, 0.8), subdiv=5)]
     for (v, f), flat in zip(shapes, (True, True, False, None)):
-        for turn in (None, rot):
-            obj = SceneObject("o", 1, f, v, shading_normals(v, f), None, np.zeros(3), skin, np.inf, turn)
+        surface = Surface.build("o", "rigid", v, f)
+        for turn in (np.eye(3), rot):
+            obj = SceneObject("o", 1, 0, surface, Placement(turn, np.array([0.5, -1.0, 2.0]), np.zeros(3)), skin, v)
             if flat is not None:
                 assert obj.flat_shaded is flat
             tri = rng.integers(0, len(f), 200)
             bary = rng.dirichlet([1, 1, 1], 200)[:, 1:]
-            _, normal, _, curvature = _hit_geometry(obj, tri, bary)
-            n_ref, k_ref = interpolated_normals(v[f[tri]], obj.turned(obj.corner_normals[tri]), bary)
-            np.testing.assert_allclose(normal, n_ref, rtol=0, atol=1e-15)
-            np.testing.assert_allclose(curvature, k_ref, rtol=0, atol=1e-12)
+            position, normal, _, curvature = obj.hit_geometry(tri, bary)
+            n_ref, k_ref = interpolated_normals(v[f[tri]], surface.corner_normals[tri], bary)
+            w = np.stack([1 - bary.sum(1), bary[:, 0], bary[:, 1]], -1)
+            np.testing.assert_allclose(position, np.einsum("pk,pki->pi", w, v[f[tri]]) @ turn.T + [0.5, -1.0, 2.0],
+                                       rtol=0, atol=1e-12)
+            np.testing.assert_allclose(normal, n_ref @ turn.T, rtol=0, atol=1e-15)
+            np.testing.assert_allclose(curvature, turn @ k_ref @ turn.T, rtol=0, atol=1e-12)
             if flat is not None:
                 assert flat == (not np.any(curvature))
 
 
-def test_rigidly_moved_mesh_keeps_its_normals_turned():
-    """A body segment is a new PLY every frame but the same mesh moved rigidly: the rotation is
-    recovered (Kabsch), its turned normals equal the normals computed afresh from the float32
-    vertices (whose rounding, ~1.2e-7 m at 2 m over edges of ~5 mm, tilts the fresh normals by up
-    to ~5e-5 rad: tolerance 1e-4), and a mesh that deformed is not taken for a rigid one."""
-    v, f = meshes.ellipsoid((0, 0, 0), (0.05, 0.08, 0.2), n_rings=24, n_segments=48)
-    rot = rotation_matrix((0.7, -0.3, 0.2))
-    moved = (v @ rot.T + [2.0, -1.0, 0.9]).astype(np.float32).astype(float)
-    r = rigid_motion(v, f, moved, f)
-    assert r is not None and np.allclose(r, rot, atol=1e-6)
-    np.testing.assert_allclose(shading_normals(v, f) @ r.T, shading_normals(moved, f), atol=1e-4)
-    stretched = moved * [1.0, 1.0, 1.001]   # 1 mm over the 1 m height: not rigid
-    assert rigid_motion(v, f, stretched, f) is None
-    assert rigid_motion(v, f, moved, f[::-1]) is None
-
-
-def test_turning_segment_echoes_do_not_depend_on_the_frames_before(tmp_path):
-    """A metal ellipsoid turning about its axis and moving (a new PLY every frame, the same mesh
-    moved rigidly): the engine turns frame 0's normals, so frame 2 computed after frames 0 and 1
-    equals frame 2 computed alone, bit for bit (a resumed run gives the same cube)."""
+@pytest.mark.parametrize("rigid", [True, False])
+def test_turning_segment_echoes_do_not_depend_on_the_frames_before(tmp_path, rigid):
+    """A metal ellipsoid turning about its axis and moving, written as a rigid object (one PLY and a
+    transform per frame) or as a new PLY every frame: frame 2 computed after frames 0 and 1 equals
+    frame 2 computed alone, bit for bit (a resumed run gives the same cube)."""
     v, f = meshes.ellipsoid((0, 0, 0), (0.05, 0.08, 0.2), n_rings=16, n_segments=32)
 
-    def mesh(t):
-        return v @ rotation_matrix((2.0 * t, 0.0, 0.0)).T + [3.0 + 0.5 * t, 0.0, 0.0], f
+    def pose(t):
+        return rotation_matrix((2.0 * t, 0.0, 0.0)), np.array([3.0 + 0.5 * t, 0.0, 0.0])
 
-    root = write_moving_mesh_animation(tmp_path / "turning", mesh, (0.5, 0, 0), num_frames=3, name="segment")
+    if rigid:
+        from sionnafmcw.animation.rigid import transform_matrix
+        from sionnafmcw.scenes.writer import METAL, AnimationWriter, metal_material
+
+        w = AnimationWriter(tmp_path / "turning", 10.0)
+        w.add_materials(metal_material())
+        w.rigid("segment", v, f, METAL)
+        for i in range(3):
+            r, p = pose(i / 10.0)
+            w.frame(rigid={"segment": {"to_world": transform_matrix(r, p), "velocity": (0.5, 0.0, 0.0),
+                                       "angular_velocity": (0.0, 0.0, 2.0)}})
+        w.finish((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+        root = tmp_path / "turning"
+    else:
+        def mesh(t):
+            r, p = pose(t)
+            return v @ r.T + p, f
+
+        root = write_moving_mesh_animation(tmp_path / "turning", mesh, (0.5, 0, 0), num_frames=3, name="segment")
     anim = load_animation(root)
     walked = PathEngine(diffuse=False, track_kernels=False)
     for frame in range(3):
         after = walked.echoes(anim, RADAR, frame)
     alone = PathEngine(diffuse=False, track_kernels=False).echoes(anim, RADAR, 2)
     assert after.num_contributions > 0
-    # the normals cache keeps whether they are flat-shaded, for the reference and every frame's mesh
-    from sionnafmcw.engines.po_render import flat_shaded
-
-    cached = list(walked._state.normals.values())
-    assert len(cached) >= 2 and all(entry[-1] is flat_shaded(entry[0]) is False for entry in cached)
+    assert walked._state.surfaces.surfaces[0].kind == ("rigid" if rigid else "deforming")
     for name in ("a", "tau", "doppler"):
         np.testing.assert_array_equal(getattr(after, name), getattr(alone, name))
 

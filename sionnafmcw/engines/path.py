@@ -232,6 +232,7 @@ from ..sionna_rt import (
 from .base import Engine, EngineError
 from .loaded_scene import barycentric_weights, interpolate
 from .po_render import radio_material
+from .surfaces import SurfaceWorld
 
 #: Minimum path segment length (m) for a radar. Sionna's 1 cm (``MIN_SEGMENT_LENGTH``, meant for
 #: communication links) drops every retro-reflected path of a radar: a trihedral's or dihedral's
@@ -269,7 +270,7 @@ class _State:
     velocities: dict = field(default_factory=dict)  # name -> velocity currently set in Sionna
     pose: tuple | None = None
     materials: dict = field(default_factory=dict)   # name -> po_render.Material (PO)
-    normals: dict = field(default_factory=dict)     # po_render.scene_objects cache
+    surfaces: object = None                          # surfaces.SurfaceWorld: the PO render's surfaces (PO)
     static: _StaticBlock | None = None               # the static scene of the current pose (static_scene=True)
 
 
@@ -403,11 +404,6 @@ def specular_chains(paths: TracedPaths, max_interactions: int | None = None) -> 
 
 def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
-
-
-def _mesh_arrays(mesh):
-    """``(vertices, faces)`` of an animation :class:`~sionnafmcw.animation.Mesh` (world frame)."""
-    return mesh.vertices, mesh.faces
 
 
 class PathEngine(Engine):
@@ -584,7 +580,9 @@ class PathEngine(Engine):
             obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
             if self.physical_optics:
                 materials[name] = radio_material(obj.radio_material, name)
-        return _State(tx, rx, names_by_id, materials=materials)
+        surfaces = SurfaceWorld.build(animation, list(scene.objects)) if self.physical_optics or self.static_scene \
+            else None
+        return _State(tx, rx, names_by_id, materials=materials, surfaces=surfaces)
 
     def _geometry_changed(self) -> None:
         self._loaded.scene.scene_geometry_updated()
@@ -598,10 +596,13 @@ class PathEngine(Engine):
                  for name in loaded.scene.objects}
         static, spheres, moving_ids = None, None, frozenset()
         figures = {}
+        world = self._state.surfaces
+        if world is not None:
+            world.place(animation, frame, loaded, rigid)
         if self.static_scene:
-            from .static_scene import Spheres, moving_objects
+            from .static_scene import Spheres
 
-            moving = moving_objects(loaded, rigid, self.vertex_doppler)
+            moving = frozenset(world.names[k] for k in world.moving())
             moving_ids = frozenset(int(loaded.scene.objects[n].object_id) for n in moving)
             static, built = self._static_block(animation, radar, pose, velocities, rigid, moving, wavelength)
             spheres = Spheres.around([loaded.vertices[n] for n in sorted(moving)])
@@ -633,8 +634,7 @@ class PathEngine(Engine):
         figures["num_traced_paths"] = alive.num_paths
         figures["num_paths"] = (radar.num_tx * radar.num_rx if self.coherent else 1) * alive.num_paths
         if self.physical_optics:
-            po, removed_po, po_figures = self._po_echoes(animation, radar, pose, rigid, wavelength, static, spheres,
-                                                         moving_ids)
+            po, removed_po, po_figures = self._po_echoes(animation, radar, pose, rigid, wavelength, static)
             figures.update(po_figures)
             pieces["po"] = [None if static is None or static.po is None else static.po.echoes, removed_po, po]
         self._last_pieces = pieces
@@ -725,16 +725,16 @@ class PathEngine(Engine):
             return state.static, 0.0
         t0 = time.perf_counter()
         state.static = None
-        with hidden(loaded, moving):
+        with hidden(loaded, moving):   # Sionna's trace of the static objects alone
             paths, _ = self._traced_paths(wavelength)
             traced = self._traced_echoes(paths, velocities, radar, pose, wavelength)
-            po = None
-            if self.physical_optics:
-                objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
-                po = StaticPO.build(loaded, objects, set(loaded.shape_ids) - set(moving), centre, rot, wavelength,
-                                    self._po_depth, self.po_samples_across,
-                                    lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
-                                    lambda *c: self._po_merge(radar, *c, return_cells=True))
+        po = None
+        if self.physical_optics:   # the PO render casts over the static surfaces alone
+            objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
+            po = StaticPO.build(state.surfaces, objects, centre, rot, wavelength, self._po_depth,
+                                self.po_samples_across,
+                                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
+                                lambda *c: self._po_merge(radar, *c, return_cells=True))
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
         block = Echoes.empty(radar.num_tx, radar.num_rx) if not parts else \
             (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
@@ -751,17 +751,16 @@ class PathEngine(Engine):
         return self.max_depth if (self.multibounce == "po" and self.specular) else 1
 
     def _po_geometry(self, animation: Animation, radar, pose: RadarPose, rigid: dict):
-        """The PO render's objects (shading normals cached), its origin (the array's phase centre),
-        the radar rotation and the Tx / Rx element positions (world)."""
+        """The PO render's objects (the surfaces placed in the frame), its origin (the array's phase
+        centre), the radar rotation and the Tx / Rx element positions (world)."""
         from .po_render import scene_objects
 
-        loaded, state = self._loaded, self._state
         rot = rotation_matrix(pose.orientation)
         centre = np.asarray(pose.position, float) + rot @ radar.phase_centre
         tx_w = np.asarray(pose.position, float) + radar.tx_positions @ rot.T
         rx_w = np.asarray(pose.position, float) + radar.rx_positions @ rot.T
-        objects = scene_objects(loaded, rigid, state.materials, vertex_doppler=self.vertex_doppler,
-                                cache=state.normals, reference=lambda name: _mesh_arrays(animation.mesh(0, name)))
+        objects = scene_objects(self._loaded, self._state.surfaces, self._state.materials,
+                                vertex_doppler=self.vertex_doppler)
         return objects, centre, rot, tx_w, rx_w
 
     @staticmethod
@@ -785,8 +784,7 @@ class PathEngine(Engine):
                                    doppler_cell=MERGE_FRACTION / radar.cpi_duration, frequency=radar.fc,
                                    return_cells=return_cells)
 
-    def _po_echoes(self, animation: Animation, radar, pose: RadarPose, rigid: dict, wavelength: float, static=None,
-                   spheres=None, moving_ids=frozenset()):
+    def _po_echoes(self, animation: Animation, radar, pose: RadarPose, rigid: dict, wavelength: float, static=None):
         """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
         reflections up to ``max_depth`` bounces (:mod:`sionnafmcw.engines.po_render`), every element
         pair near-field exact, merged per delay/Doppler cell of :data:`~.po_render.MERGE_FRACTION` of
@@ -796,21 +794,20 @@ class PathEngine(Engine):
         from .po_render import reflect, render
 
         t0 = time.perf_counter()
-        loaded = self._loaded
+        world = self._state.surfaces
         objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
         depth = self._po_depth
         removed, num_removed = None, 0
         if static is not None and static.po is not None:
             renders, removed, num_removed = static.po.frame(
-                loaded, objects, moving_ids, spheres, centre, rot, wavelength, depth, self.po_samples_across,
+                world, objects, centre, rot, wavelength, depth, self.po_samples_across,
                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc)
             self.last_renders = [*static.po.renders, *renders]
         else:
-            bounce = render(loaded, centre, rot, wavelength, rigid, self._state.materials, objects=objects,
-                            samples_across=self.po_samples_across, vertex_doppler=self.vertex_doppler)
+            bounce = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across)
             renders = [bounce]
             while bounce.depth < depth and bounce.num_samples:
-                bounce = reflect(loaded, bounce, objects, rot, wavelength)
+                bounce = reflect(world, bounce, objects, rot, wavelength)
                 renders.append(bounce)
             self.last_renders = renders
         echoes = []

@@ -1,13 +1,13 @@
 r"""The physical-optics render shared by the engines: the lit surface as :class:`SurfaceSamples`.
 
 From a point :math:`\mathbf c` (the array's phase centre, or the centre of the Tx elements),
-every object of a :class:`~sionnafmcw.engines.loaded_scene.LoadedScene` is rendered on its own
-equiangular azimuth/elevation grid (radar frame) covering its angular bounding box, with the
-angular step of :func:`sionnafmcw.physical_optics.render_resolution` for its size, its largest
-range and its smallest radius of curvature. Rays are cast with Mitsuba's
-``ray_intersect_preliminary`` on the Sionna scene (through :mod:`sionnafmcw.sionna_rt`); a ray
-is kept where its *first* hit is on the object it was cast for, so visibility from the radar
-comes with the cast. Every kept hit is one :class:`~sionnafmcw.physical_optics.SurfaceSamples`
+every object is rendered on its own equiangular azimuth/elevation grid (radar frame) covering its
+angular bounding box, with the angular step of :func:`sionnafmcw.physical_optics.render_resolution`
+for its size, its largest range and its smallest radius of curvature. Rays are cast with
+Mitsuba's ``ray_intersect_preliminary`` over the objects' surfaces, each built once in its own
+frame and placed per frame (:mod:`~sionnafmcw.engines.surfaces`: no acceleration structure is
+rebuilt for a rigid object); a ray is kept where its *nearest* hit is on the object it was cast
+for, so visibility from the radar comes with the cast. Every kept hit is one :class:`~sionnafmcw.physical_optics.SurfaceSamples`
 sample: position (from the triangle and barycentrics, float64), shading normal, area and
 footprint edges (:func:`~sionnafmcw.physical_optics.render_samples`), velocity (per-vertex field
 interpolated, else the object's velocity), the material's complex reflection coefficient and
@@ -16,9 +16,10 @@ scattering coefficient, and object / triangle / barycentrics for
 
 Shading normals
 ---------------
-The scenes' PLY meshes carry no vertex normals (``face_normals`` is on), so a faceted sphere or
-limb would be rendered as its flat facets, whose PO is a set of glints that depend on the
-tessellation. :func:`shading_normals` smooths across edges whose dihedral angle is below
+A faceted sphere or limb rendered with its facet normals would be its flat facets, whose PO is a
+set of glints that depend on the tessellation. Where the PLY carries vertex normals the surface
+takes them at its smooth vertices (:class:`~sionnafmcw.engines.surfaces.Surface`); elsewhere
+:func:`shading_normals` smooths across edges whose dihedral angle is below
 ``crease_angle`` (default 30 degrees): every triangle corner gets the area-weighted mean of the
 normals of the triangles at that vertex that lie within the crease angle of its own, and a hit
 gets the barycentric interpolation of its triangle's corner normals. A flat plate (any
@@ -140,7 +141,7 @@ def face_normals(vertices, faces) -> tuple[np.ndarray, np.ndarray]:
     return np.divide(cross, norm[:, None], out=np.zeros_like(cross), where=norm[:, None] > 0), norm / 2
 
 
-def shading_normals(vertices, faces, crease_angle: float = CREASE_ANGLE) -> np.ndarray:
+def shading_normals(vertices, faces, crease_angle: float = CREASE_ANGLE):
     """Corner normals ``[F, 3, 3]``: at every corner the area-weighted mean normal of the triangles at
     that vertex within ``crease_angle`` (rad) of the triangle's own normal (module docstring).
 
@@ -198,37 +199,61 @@ def curvature_radius(vertices, faces, corner_normals, quantile: float = 0.02) ->
 # ---------------------------------------------------------------------------------------- scene description
 @dataclass
 class SceneObject:
-    """One object of the render: name, Mitsuba shape id (int), faces, world vertices, corner normals
-    ``[F, 3, 3]``, per-vertex velocity ``[V, 3]`` or None, rigid velocity ``[3]`` and material.
-    ``normal_rotation`` (3x3 or None): the corner normals are those of a reference mesh that this
-    one is a rigid motion of, still to be turned by it (:meth:`turned`: only the normals of hits).
-    ``flat``: :attr:`flat_shaded` of these corner normals when already known (None: worked out on
-    first use)."""
+    """One object of the render in the current frame: ``name``, Sionna object id ``shape_id``, its
+    ``index`` in the :class:`~.surfaces.SurfaceWorld`, its ``surface`` (own frame: vertices, faces,
+    corner normals, curvature radius), its ``placement`` (rotation, translation and velocity field of
+    the frame), its ``material`` and ``box_vertices`` (world points that bound it, for its angular
+    box: the loaded mesh). ``vertex_doppler`` False: the object's uniform velocity only (no rigid
+    rotation field or per-vertex velocities)."""
 
     name: str
     shape_id: int
-    faces: np.ndarray
-    vertices: np.ndarray
-    corner_normals: np.ndarray
-    vertex_velocity: np.ndarray | None
-    velocity: np.ndarray
+    index: int
+    surface: object
+    placement: object
     material: Material
-    curvature_radius: float
-    normal_rotation: np.ndarray | None = None
-    flat: bool | None = None
+    box_vertices: np.ndarray
+    vertex_doppler: bool = True
 
-    def turned(self, normals) -> np.ndarray:
-        """Normals ``[..., 3]`` of :attr:`corner_normals` (corners or interpolated), turned by
-        ``normal_rotation`` (a rotation commutes with the interpolation and keeps unit length)."""
-        return normals if self.normal_rotation is None else normals @ self.normal_rotation.T
+    @property
+    def curvature_radius(self) -> float:
+        return self.surface.curvature_radius
 
     @property
     def flat_shaded(self) -> bool:
         """True when every face has one normal at its three corners (the room's planes): the
         interpolated normal is then that normal and its shape operator is zero, exactly."""
-        if self.flat is None:
-            self.flat = flat_shaded(self.corner_normals)
-        return self.flat
+        return self.surface.flat
+
+    def hit_geometry(self, triangle, bary):
+        r"""Position, shading normal, velocity ``[K, 3]`` (world) and the normal's shape operator
+        ``[K, 3, 3]`` (:func:`~sionnafmcw.physical_optics.interpolated_normals`) of hits on triangles
+        ``triangle [K]`` at barycentrics ``bary [K, 2]`` of the surface (float64): computed in the
+        surface's own frame and placed, :math:`\mathbf x = \mathbf R\mathbf x_L + \mathbf p`,
+        :math:`\hat{\mathbf n} = \mathbf R\hat{\mathbf n}_L`, :math:`\mathbf K = \mathbf R\mathbf K_L\mathbf R^T`;
+        velocity :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)` for a turning
+        rigid object, the interpolated vertex velocities of a deforming one, else the uniform one."""
+        surface, place = self.surface, self.placement
+        tri = surface.faces[triangle]
+        w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
+        position = place.to_world(interpolate(surface.vertices, tri, w))
+        rot = place.rotation
+        if surface.flat:   # what interpolated_normals gives there, without its arithmetic
+            m = surface.corner_normals[triangle, 0]
+            normal = (m / np.linalg.norm(m, axis=-1)[:, None]) @ rot.T
+            curvature = np.zeros((len(triangle), 3, 3))
+        else:
+            normal, curvature = interpolated_normals(surface.vertices[tri], surface.corner_normals[triangle], bary)
+            normal = normal @ rot.T
+            if not np.array_equal(rot, np.eye(3)):
+                curvature = np.einsum("ij,pjk,lk->pil", rot, curvature, rot)
+        if self.vertex_doppler and place.vertex_velocity is not None:
+            velocity = interpolate(place.vertex_velocity, tri, w)
+        elif self.vertex_doppler and place.motion is not None:
+            velocity = place.motion.point_velocities(position)
+        else:
+            velocity = np.broadcast_to(place.velocity, position.shape).copy()
+        return position, normal, velocity, curvature
 
 
 def flat_shaded(corner_normals) -> bool:
@@ -237,80 +262,13 @@ def flat_shaded(corner_normals) -> bool:
     return bool(np.all(n[:, 1:] == n[:, :1]))
 
 
-#: Largest vertex residual (m) of a rigid fit for :func:`rigid_motion` to call a mesh rigidly moved
-#: (PLY vertices are float32: about 1e-7 m of rounding at a few metres).
-RIGID_TOLERANCE = 1e-5
-#: Cache key tag of an object's reference mesh in :func:`scene_objects` (no object name equals it).
-_REFERENCE = object()
-
-
-def rigid_motion(old_vertices, old_faces, vertices, faces, tolerance: float = RIGID_TOLERANCE):
-    r"""The rotation :math:`\mathbf R` with ``vertices`` :math:`= \mathbf R\,\mathbf x + \mathbf t` for every
-    vertex :math:`\mathbf x` of ``old_vertices`` (same faces), or None when the mesh changed otherwise.
-
-    Kabsch's least-squares fit: with the centred vertex sets :math:`A` (old) and :math:`B` (new)
-    and the SVD :math:`A^TB = U\Sigma V^T`, :math:`\mathbf R = V\,\mathrm{diag}(1, 1, d)\,U^T`,
-    :math:`d = \mathrm{sign}\det(VU^T)`; accepted when no vertex is off by more than ``tolerance``.
-    Shading normals and curvature radii are invariant under the motion: the normals turn with
-    :math:`\mathbf R`, the radii stay (the rigid segments of the walking body, a new PLY each frame).
-    """
-    if old_vertices.shape != vertices.shape or old_faces.shape != faces.shape or not np.array_equal(old_faces, faces):
-        return None
-    c_old, c_new = old_vertices.mean(axis=0), vertices.mean(axis=0)
-    a, b = old_vertices - c_old, vertices - c_new
-    u, _, vt = np.linalg.svd(a.T @ b)
-    d = np.sign(np.linalg.det(vt.T @ u.T))
-    rotation = vt.T @ np.diag([1.0, 1.0, d]) @ u.T
-    if np.max(np.abs(a @ rotation.T - b)) > tolerance:
-        return None
-    return rotation
-
-
-def scene_objects(loaded, velocities: dict, materials: dict, crease_angle: float = CREASE_ANGLE,
-                  vertex_doppler: bool = True, cache: dict | None = None, reference=None) -> list[SceneObject]:
-    """:class:`SceneObject` of every object of a :class:`~sionnafmcw.engines.loaded_scene.LoadedScene`
-    in its current frame. ``velocities``: name -> rigid velocity (m/s, used where the mesh has no
-    per-vertex field or ``vertex_doppler`` is off); ``materials``: name -> :class:`Material`.
-    ``cache`` (a dict the caller keeps) reuses normals and curvature of meshes whose PLY (file,
-    mtime, transform: ``loaded.loaded_files``) did not change. ``reference`` (name -> ``(vertices,
-    faces)`` of a fixed frame, e.g. frame 0, world frame): a mesh that is that reference moved
-    rigidly (:func:`rigid_motion`: the segments of the walking body, a new PLY every frame) gets
-    the reference's normals turned, computed once; the result depends on the frame only, not on
-    the frames simulated before it (a resumed run gives the same echoes). The cache also keeps
-    whether the normals are :func:`flat_shaded`."""
-    out = []
-    for name, obj in loaded.scene.objects.items():
-        faces, vertices = loaded.faces[name], loaded.vertices[name]
-        key = (name, loaded.loaded_files.get(name))   # changes whenever the mesh is rewritten
-        turn = None
-        if cache is not None and key in cache:
-            normals, rho, turn, flat = cache[key]
-        else:
-            moved, ref = None, None
-            if cache is not None and reference is not None:
-                ref = cache.get((_REFERENCE, name))
-                if ref is None:
-                    v_ref, f_ref = reference(name)
-                    v_ref, f_ref = np.asarray(v_ref, float), np.asarray(f_ref)
-                    n_ref = shading_normals(v_ref, f_ref, crease_angle)
-                    ref = cache[(_REFERENCE, name)] = (n_ref, curvature_radius(v_ref, f_ref, n_ref), v_ref, f_ref,
-                                                       flat_shaded(n_ref))
-                moved = rigid_motion(ref[2], ref[3], vertices, faces)
-            if moved is not None:  # the reference mesh moved rigidly (a body segment): its normals, to be turned
-                normals, rho, turn, flat = ref[0], ref[1], moved, ref[4]
-            else:
-                normals = shading_normals(vertices, faces, crease_angle)
-                rho = curvature_radius(vertices, faces, normals)
-                flat = flat_shaded(normals)
-            if cache is not None:
-                for old in [k for k in cache if k[0] == name]:
-                    del cache[old]
-                cache[key] = (normals, rho, turn, flat)
-        field_v = loaded.vertex_velocity.get(name) if vertex_doppler else None
-        v = np.asarray(velocities.get(name, np.zeros(3)), float)
-        out.append(SceneObject(name, int(obj.object_id), faces, vertices, normals, field_v, v, materials[name], rho,
-                               turn, flat))
-    return out
+def scene_objects(loaded, world, materials: dict, vertex_doppler: bool = True) -> list[SceneObject]:
+    """:class:`SceneObject` of every object of ``world`` (a :class:`~.surfaces.SurfaceWorld` placed in
+    the current frame: :meth:`~.surfaces.SurfaceWorld.place`), in its order; ``materials``: name ->
+    :class:`Material`; the angular box of each from the loaded mesh of the frame (``loaded.vertices``)."""
+    return [SceneObject(name, int(loaded.scene.objects[name].object_id), k, world.surfaces[k], world.placements[k],
+                        materials[name], loaded.vertices[name], vertex_doppler)
+            for k, name in enumerate(world.names)]
 
 
 # ---------------------------------------------------------------------------------------- render
@@ -435,25 +393,6 @@ def _grid(start, width, low, high, step, pad=1):
     return az, el, d_az, d_el
 
 
-def _hit_geometry(obj: SceneObject, triangle, bary):
-    """Position, shading normal, velocity ``[K, 3]`` and the normal's shape operator ``[K, 3, 3]``
-    (:func:`~sionnafmcw.physical_optics.interpolated_normals`) of hits on ``obj`` (float64)."""
-    tri = obj.faces[triangle]
-    w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
-    position = interpolate(obj.vertices, tri, w)
-    if obj.flat_shaded:   # what interpolated_normals gives there, without its arithmetic
-        m = obj.turned(obj.corner_normals[triangle, 0])
-        normal = m / np.linalg.norm(m, axis=-1)[:, None]
-        curvature = np.zeros((len(triangle), 3, 3))
-    else:
-        normal, curvature = interpolated_normals(obj.vertices[tri], obj.turned(obj.corner_normals[triangle]), bary)
-    if obj.vertex_velocity is not None:
-        velocity = interpolate(obj.vertex_velocity, tri, w)
-    else:
-        velocity = np.broadcast_to(obj.velocity, position.shape).copy()
-    return position, normal, velocity, curvature
-
-
 def _reflection(obj_index, objects, normal, k_in, rotation, wavelength):
     """Complex :math:`\\Gamma` and :math:`S` per hit (material of each hit's object)."""
     eta = np.array([o.material.eta for o in objects], dtype=complex)[obj_index]
@@ -474,7 +413,7 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     for k, obj in enumerate(objects):
         sel = np.flatnonzero(obj_index == k)
         if sel.size:
-            position[sel], normal[sel], velocity[sel], curvature[sel] = _hit_geometry(obj, triangle[sel], bary[sel])
+            position[sel], normal[sel], velocity[sel], curvature[sel] = obj.hit_geometry(triangle[sel], bary[sel])
     # the sample's distance along the ray from the (image) source, float64 from the triangle point
     distance = np.linalg.norm(position - source, axis=-1)
     direction = unit(position - source)
@@ -488,32 +427,33 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
                           triangle=triangle, barycentric=bary, labels=names[obj_index], curvature=curvature), direction
 
 
-def render(loaded, origin, rotation, wavelength: float, velocities: dict, materials: dict, *,
-           samples_across: int = 16, crease_angle: float = CREASE_ANGLE, vertex_doppler: bool = True,
-           max_rays_per_object: int = MAX_RAYS_PER_OBJECT, objects: list[SceneObject] | None = None,
-           cache: dict | None = None, step_scale: float = 1.0) -> Render:
-    """First-bounce PO render of every object of ``loaded`` from ``origin`` (world, m).
+def render(world, objects: list[SceneObject], origin, rotation, wavelength: float, *, targets=None,
+           group: str = "all", samples_across: int = 16, max_rays_per_object: int = MAX_RAYS_PER_OBJECT,
+           step_scale: float = 1.0) -> Render:
+    r"""First-bounce PO render from ``origin`` (world, m) of the ``targets`` (indices into ``objects``,
+    default all) of a :class:`~.surfaces.SurfaceWorld` placed in the frame; ``objects`` are the
+    world's :func:`scene_objects`, in its order.
 
     ``rotation`` (3x3, radar frame -> world) orients the azimuth/elevation grids and the element
-    polarisation (vertical) used for :math:`\\Gamma`; ``velocities`` (name -> m/s) and ``materials``
-    (name -> :class:`Material`) as in :func:`scene_objects`. Each object's angular step is
+    polarisation (vertical) used for :math:`\Gamma`. Each object's angular step is
     :func:`~sionnafmcw.physical_optics.render_resolution` (extent = the bounding-box diagonal,
-    distance = its largest range, curvature = :func:`curvature_radius`, ``samples_across``)
-    times ``step_scale`` (for convergence checks). Raises :class:`RenderError` naming the object
-    when its render would cast more than ``max_rays_per_object`` rays.
+    distance = its largest range, curvature = its surface's curvature radius, ``samples_across``)
+    times ``step_scale`` (for convergence checks). All the targets' rays are cast at once over the
+    surfaces of ``group`` (:meth:`~.surfaces.SurfaceWorld.cast`); a ray keeps its hit only where the
+    nearest hit is on the object it was cast for. Raises :class:`RenderError` naming the object when
+    its render would cast more than ``max_rays_per_object`` rays.
     """
     origin = np.asarray(origin, float)
     rotation = np.asarray(rotation, float)
-    if objects is None:
-        objects = scene_objects(loaded, velocities, materials, crease_angle, vertex_doppler, cache)
-    parts = []
+    targets = range(len(objects)) if targets is None else targets
+    dirs, owner, cells = [], [], []
     steps = {}
-    num_rays = 0
-    for k, obj in enumerate(objects):
-        start, width, low, high, r_min, r_max = object_box(obj.vertices, origin, rotation)
+    for k in targets:
+        obj = objects[k]
+        start, width, low, high, r_min, r_max = object_box(obj.box_vertices, origin, rotation)
         if r_min <= 0:
             raise RenderError(f"po_render: the render origin lies on object {obj.name!r}")
-        extent = float(np.linalg.norm(obj.vertices.max(axis=0) - obj.vertices.min(axis=0)))
+        extent = float(np.linalg.norm(obj.box_vertices.max(axis=0) - obj.box_vertices.min(axis=0)))
         step = render_resolution(extent, r_max, wavelength, curvature_radius=obj.curvature_radius,
                                  samples_across=samples_across) * float(step_scale)
         steps[obj.name] = step
@@ -524,24 +464,25 @@ def render(loaded, origin, rotation, wavelength: float, velocities: dict, materi
                 f"po_render: object {obj.name!r} ({extent:.2f} m, {r_min:.2f}-{r_max:.2f} m away) needs {n} rays at "
                 f"{step * 1e3:.2f} mrad, more than max_rays_per_object={max_rays_per_object}; lower samples_across "
                 f"({samples_across}) or raise max_rays_per_object")
-        num_rays += n
         ee, aa = np.meshgrid(el, az, indexing="ij")
         ee, aa = ee.ravel(), aa.ravel()
-        local = np.stack([np.cos(ee) * np.cos(aa), np.cos(ee) * np.sin(aa), np.sin(ee)], -1)
-        directions = local @ rotation.T
-        from ..sionna_rt import cast_rays
-
-        valid, t, shape, prim, uv = cast_rays(loaded.scene, origin, directions)
-        keep = valid & (shape == obj.shape_id)
-        if not np.any(keep):
-            continue
-        solid = d_az * (np.sin(ee[keep] + d_el / 2) - np.sin(ee[keep] - d_el / 2))
-        s_az, s_el = angular_grid_steps(local[keep], d_az, d_el, rotation)
-        parts.append((np.full(int(keep.sum()), k), prim[keep], uv[keep], solid, s_az, s_el))
-    if not parts:
+        dirs.append(np.stack([np.cos(ee) * np.cos(aa), np.cos(ee) * np.sin(aa), np.sin(ee)], -1))
+        owner.append(np.full(n, k, dtype=np.int64))
+        cells.append(np.tile([d_az, d_el], (n, 1)))
+    num_rays = int(sum(d.shape[0] for d in dirs))
+    if not num_rays:
+        return _empty_render(origin, steps, 0)
+    local, owner, cells = np.concatenate(dirs), np.concatenate(owner), np.concatenate(cells)
+    valid, _, hit_obj, prim, uv = world.cast(origin, local @ rotation.T, group)
+    keep = np.flatnonzero(valid & (hit_obj == owner))   # objects are in the world's order
+    if keep.size == 0:
         return _empty_render(origin, steps, num_rays)
-    obj_index, triangle, bary, solid, s_az, s_el = (np.concatenate(x) for x in zip(*parts))
-    samples, direction = _samples(objects, obj_index, triangle, bary, origin, s_az, s_el, solid, rotation,
+    d_az, d_el = cells[keep, 0], cells[keep, 1]
+    el = np.arcsin(np.clip(local[keep, 2], -1.0, 1.0))
+    solid = d_az * (np.sin(el + d_el / 2) - np.sin(el - d_el / 2))
+    s_az, s_el = angular_grid_steps(local[keep], 1.0, 1.0, rotation)
+    s_az, s_el = s_az * d_az[:, None], s_el * d_el[:, None]
+    samples, direction = _samples(objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid, rotation,
                                   wavelength)
     p = samples.num_samples
     eye = np.broadcast_to(np.eye(3), (p, 3, 3)).copy()
@@ -556,10 +497,12 @@ def _empty_render(origin, steps, num_rays, depth=1) -> Render:
                   np.zeros(0), steps, num_rays, None if depth == 1 else z3, None if depth == 1 else np.zeros(0, np.int64))
 
 
-def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wavelength: float) -> Render:
+def reflect(world, previous: Render, objects: list[SceneObject], rotation, wavelength: float,
+            group: str = "all") -> Render:
     """The next bounce of ``previous``: every sample's ray reflected about its shading normal and cast
-    again; the hits become the samples of bounce ``previous.depth + 1`` with the image map, chain
-    reflection and mirrored steps of the module docstring."""
+    again over the surfaces of ``group`` (:meth:`~.surfaces.SurfaceWorld.cast`; ``objects`` the
+    world's :func:`scene_objects`); the hits become the samples of bounce ``previous.depth + 1`` with
+    the image map, chain reflection and mirrored steps of the module docstring."""
     s = previous.samples
     if s.num_samples == 0:
         return _empty_render(np.zeros(3), previous.step, 0, previous.depth + 1)
@@ -567,12 +510,8 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     n, k_out = previous.reflected()
     # start a hair off the surface along the outgoing ray (float32 scene)
     eps = 1e-5 * (1.0 + np.linalg.norm(s.position, axis=-1))
-    from ..sionna_rt import cast_rays
-
-    valid, t, shape, prim, uv = cast_rays(loaded.scene, s.position + eps[:, None] * k_out, k_out)
-    by_id = {o.shape_id: k for k, o in enumerate(objects)}
-    known = valid & np.isin(shape, list(by_id))
-    idx = np.flatnonzero(known)
+    valid, t, hit_obj, prim, uv = world.cast(s.position + eps[:, None] * k_out, k_out, group)
+    idx = np.flatnonzero(valid)
     if idx.size == 0:
         return _empty_render(np.zeros(3), previous.step, int(valid.size), previous.depth + 1)
     # mirror map of this bounce: x -> (I - 2 n n^T) x + 2 n (n . p)
@@ -588,9 +527,7 @@ def reflect(loaded, previous: Render, objects: list[SceneObject], rotation, wave
     s_el = np.einsum("pij,pj->pi", reflect_lin, previous.step_el[idx])
     # the tube's solid angle: |step_az x step_el| (exact for the grid's pixels to first order)
     solid = np.linalg.norm(np.cross(previous.step_az[idx], previous.step_el[idx]), axis=-1)
-    ids = np.array(sorted(by_id), dtype=np.int64)
-    obj_index = np.array([by_id[int(i)] for i in ids], dtype=np.int64)[np.searchsorted(ids, shape[idx])]
-    samples, direction = _samples(objects, obj_index, prim[idx], uv[idx], source, s_az, s_el, solid, rotation,
+    samples, direction = _samples(objects, hit_obj[idx], prim[idx], uv[idx], source, s_az, s_el, solid, rotation,
                                   wavelength)
     chain = previous.chain_reflection[idx] * np.sqrt(np.clip(1 - s.scattering_coefficient[idx] ** 2, 0, 1)) \
         * s.reflection[idx]
@@ -776,7 +713,7 @@ def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequen
     return out.reshape(m, n, g), cell_tau[:, :, cells], cell_doppler[:, :, cells], np.asarray(cell_labels)[cells]
 
 
-__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "RIGID_TOLERANCE", "Render", "RenderError", "SceneObject",
+__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject",
            "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "label_codes",
-           "merge_contributions", "object_box", "radio_material", "reflect", "render", "rigid_motion",
+           "merge_contributions", "object_box", "radio_material", "reflect", "render",
            "scene_objects", "shading_normals", "take_out_of_cells"]

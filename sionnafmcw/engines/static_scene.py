@@ -167,22 +167,37 @@ def blocked_segments(loaded, starts, ends, moving_ids, tolerance: float = SEGMEN
     return valid & np.isin(shape, list(moving_ids)) & (t + eps < length - tolerance)
 
 
-def first_hit_moving(loaded, starts, directions, moving_ids) -> np.ndarray:
-    """``[P]`` bool: the rays ``starts + t directions`` (started off their surface as
-    :func:`~sionnafmcw.engines.po_render.reflect` does) whose first hit is on a moving object."""
-    from ..sionna_rt import cast_rays
+def blocked_in_world(world, starts, ends, tolerance: float = SEGMENT_TOLERANCE) -> np.ndarray:
+    """``[P]`` bool: the segments ``starts -> ends`` (world, m) on which a moving surface of the
+    :class:`~sionnafmcw.engines.surfaces.SurfaceWorld` is hit more than ``tolerance`` before the end
+    (the PO chains' test; :func:`blocked_segments` is Sionna's paths')."""
+    starts = np.asarray(starts, float)
+    d = np.asarray(ends, float) - starts
+    length = np.linalg.norm(d, axis=-1)
+    if len(starts) == 0:
+        return np.zeros(0, dtype=bool)
+    k = d / np.maximum(length, 1e-300)[:, None]
+    eps = 1e-5 * (1.0 + np.linalg.norm(starts, axis=-1))   # off the start surface, as po_render.reflect
+    valid, t, _, _, _ = world.cast(starts + eps[:, None] * k, k, "moving")
+    return valid & (t + eps < length - tolerance)
 
+
+def first_hit_moving(world, starts, directions) -> np.ndarray:
+    """``[P]`` bool: the rays ``starts + t directions`` (started off their surface as
+    :func:`~sionnafmcw.engines.po_render.reflect` does) whose nearest hit in the
+    :class:`~sionnafmcw.engines.surfaces.SurfaceWorld` is on a moving surface."""
     if len(starts) == 0:
         return np.zeros(0, dtype=bool)
     eps = 1e-5 * (1.0 + np.linalg.norm(starts, axis=-1))
-    valid, _, shape, _, _ = cast_rays(loaded.scene, starts + eps[:, None] * directions, directions)
-    return valid & np.isin(shape, list(moving_ids))
+    valid, _, obj, _, _ = world.cast(starts + eps[:, None] * directions, directions, "all")
+    return valid & np.isin(obj, world.moving())
 
 
 # ---------------------------------------------------------------------------------------- PO
 @dataclass
 class StaticPO:
-    """The PO render of the static objects (moving ones hidden), its echoes merged, and what a frame needs.
+    """The PO render of the static objects (cast over the static surfaces only), its echoes merged, and
+    what a frame needs.
 
     ``renders``: :class:`~sionnafmcw.engines.po_render.Render` per bounce; ``keep``: per bounce the
     samples that carry PO (:meth:`~sionnafmcw.engines.po_render.Render.carries_po`); ``incident``:
@@ -202,20 +217,22 @@ class StaticPO:
     echoes: object
 
     @classmethod
-    def build(cls, loaded, objects, static_names, centre, rotation, wavelength: float, depth: int,
-              samples_across: int, contributions, merge) -> StaticPO:
-        """Render the ``static_names`` objects of ``objects`` from ``centre`` up to ``depth`` bounces
-        (call inside :func:`hidden`); ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of
-        a render's samples, ``merge(a, tau, doppler, labels)`` the merged ``(a, tau, doppler, labels,
-        cell)`` or None (no merging)."""
+    def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
+              contributions, merge) -> StaticPO:
+        """Render the static surfaces of ``world`` (``objects``: its :func:`~.po_render.scene_objects`)
+        from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
+        ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
+        ``merge(a, tau, doppler, labels)`` the merged ``(a, tau, doppler, labels, cell)`` or None (no
+        merging)."""
         from ..echoes import Echoes
         from .po_render import reflect, render
 
-        static = [o for o in objects if o.name in static_names]
-        bounce = render(loaded, centre, rotation, wavelength, {}, {}, objects=static, samples_across=samples_across)
+        static = [k for k, surface in enumerate(world.surfaces) if surface.kind == "static"]
+        bounce = render(world, objects, centre, rotation, wavelength, targets=static, group="static",
+                        samples_across=samples_across)
         renders = [bounce]
         while bounce.depth < depth and bounce.num_samples:
-            bounce = reflect(loaded, bounce, objects, rotation, wavelength)
+            bounce = reflect(world, bounce, objects, rotation, wavelength, group="static")
             renders.append(bounce)
         d_first = renders[0].samples.position - renders[0].source
         length_first = np.linalg.norm(d_first, axis=-1)
@@ -253,8 +270,8 @@ class StaticPO:
     def num_samples(self) -> int:
         return int(sum(int(k.sum()) for k in self.keep))
 
-    def frame(self, loaded, objects, moving_ids, spheres: Spheres, centre, rotation, wavelength: float, depth: int,
-              samples_across: int, contributions, frequency: float):
+    def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
+              contributions, frequency: float):
         """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
 
         ``renders``: the frame's own PO renders (the moving objects' render and its reflections,
@@ -266,17 +283,18 @@ class StaticPO:
         from ..echoes import Echoes
         from .po_render import reflect, render, take_out_of_cells
 
-        moving = [o for o in objects if o.shape_id in moving_ids]
+        moving = world.moving()
+        spheres = Spheres(*world.bounding_spheres(moving))
         first = self.renders[0]
         removed = [np.zeros(first.num_samples, dtype=bool)]
         if first.num_samples and moving:
             cand = np.flatnonzero(spheres.meet(first.source, *self.incident))
-            removed[0][cand] = blocked_segments(loaded, first.source[cand], first.samples.position[cand], moving_ids)
-        own = [render(loaded, centre, rotation, wavelength, {}, {}, objects=moving, samples_across=samples_across)] \
+            removed[0][cand] = blocked_in_world(world, first.source[cand], first.samples.position[cand])
+        own = [render(world, objects, centre, rotation, wavelength, targets=moving, samples_across=samples_across)] \
             if moving else []
         frontier = list(own)
         for d in range(1, depth):
-            nxt = [reflect(loaded, b, objects, rotation, wavelength) for b in frontier if b.num_samples]
+            nxt = [reflect(world, b, objects, rotation, wavelength) for b in frontier if b.num_samples]
             if d < len(self.renders):
                 prev, (k_out, child, length) = self.renders[d - 1], self.outgoing[d - 1]
                 gone = removed[d - 1][self.renders[d].parent]
@@ -284,11 +302,11 @@ class StaticPO:
                     cand = np.flatnonzero(~removed[d - 1] & spheres.meet(prev.samples.position, k_out, length))
                     # the reflected rays that now end on a moving object: their cached next bounce goes,
                     # and they are rendered again (only those) on the moving object
-                    cand = cand[first_hit_moving(loaded, prev.samples.position[cand], k_out[cand], moving_ids)]
+                    cand = cand[first_hit_moving(world, prev.samples.position[cand], k_out[cand])]
                     if cand.size:
                         ended = child[cand]
                         gone[ended[ended >= 0]] = True
-                        nxt.append(reflect(loaded, prev.select(cand), objects, rotation, wavelength))
+                        nxt.append(reflect(world, prev.select(cand), objects, rotation, wavelength))
                 removed.append(gone)
             own.extend(nxt)
             frontier = nxt
@@ -309,4 +327,5 @@ class StaticPO:
         return own, removed_echoes, int(sum(int((g & k).sum()) for g, k in zip(removed, self.keep)))
 
 
-__all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_segments", "first_hit_moving", "hidden", "moving_objects"]
+__all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
+           "moving_objects"]

@@ -1,0 +1,389 @@
+r"""The surfaces physical optics renders: every object's surface built once in its own frame, and the
+ray casts that place them in a frame.
+
+Sionna RT accepts triangle meshes only, and moving one means rewriting its vertices and letting
+Mitsuba rebuild the whole acceleration structure (Embree's BVH, rebuilt for every shape group on the
+LLVM backend). For the PO render that was the fine body: 191k triangles rebuilt every frame although
+its 13 segments are rigid. Here each object gets a :class:`Surface` -- its mesh in its own frame
+(the PLY as written: a rigid object's own frame, the world for the others), its corner normals, the
+smallest radius of curvature of its normal field -- and a Mitsuba scene of that surface alone, built
+once. The engine does the instancing: a ray :math:`\mathbf o + t\hat{\mathbf d}` meets a rigid object
+placed by :math:`\mathbf x = \mathbf R\mathbf x_L + \mathbf p` where the ray
+:math:`\mathbf R^T(\mathbf o - \mathbf p) + t\,\mathbf R^T\hat{\mathbf d}` meets its surface in its
+own frame, at the same :math:`t` (a rigid motion keeps lengths). :meth:`SurfaceWorld.cast` returns
+the nearest hit over every group it is asked for:
+
+* the **static** group: every object that never moves, in one scene in world coordinates;
+* the **rigid** atlas: every rigid object's surface in one scene, each in a slot of its own (its
+  bounding sphere's centre moved to the slot's centre, the slots' spheres apart); a ray is cast
+  into an object's slot only where it passes through that object's bounding sphere, from where it
+  enters the sphere to where it leaves it (``maxt``), so it can meet no other slot;
+* one **deforming** group per object whose mesh changes (its scene's vertices written per frame).
+
+All of it is one Dr.Jit kernel per cast (:meth:`SurfaceWorld.cast`): the per-frame cost is the
+rays, not the meshes. Slots keep coordinates within a few metres of the
+atlas origin: float32 there is good to a micrometre, and a hit's position is recomputed in
+float64 from its triangle and barycentrics.
+Shadowing is as before: a render keeps a ray's hit only when the nearest hit over every group is on
+the object the ray was cast for (an arm in front of the torso hides it; the room hides and is
+hidden).
+
+Corner normals. Where the PLY carries vertex normals (the smooth surface the writer meant: the
+walking body's segments, a smooth-shaded Blender mesh) a corner takes its vertex's normal where
+that normal is within the crease angle of the triangle's own facet normal, and the crease-aware
+shading normal of :func:`~.po_render.shading_normals` elsewhere: a box or a cylinder's rim whose
+normals were averaged across the edge (54.7 and 45 degrees from the faces) stays sharp, a coarse
+sphere (its vertex normals some degrees from its facets) is the sphere; without PLY normals every
+corner takes the shading normal. Everything here is numpy plus Mitsuba's ray cast (through :mod:`sionnafmcw.sionna_rt`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..animation.rigid import RigidMotion, area_centroid
+
+#: Groups of :meth:`SurfaceWorld.cast`.
+GROUPS = ("all", "static", "moving")
+
+
+@dataclass
+class Surface:
+    """One object's PO surface in its own frame (module docstring): ``vertices [V, 3]`` (m, float64),
+    ``faces [F, 3]``, ``corner_normals [F, 3, 3]`` (unit), ``curvature_radius`` (m, :func:`~.po_render.curvature_radius`),
+    ``flat`` (every face has one normal at its three corners), the bounding sphere ``centre [3]`` /
+    ``radius`` (m) and ``centroid [3]`` (area-weighted), all in its own frame; ``kind`` ``"static"``,
+    ``"rigid"`` or ``"deforming"``. ``scene``: the Mitsuba scene of this surface alone (None for
+    static surfaces, which share the static group's)."""
+
+    name: str
+    kind: str
+    vertices: np.ndarray
+    faces: np.ndarray
+    corner_normals: np.ndarray
+    curvature_radius: float
+    flat: bool
+    centre: np.ndarray
+    radius: float
+    centroid: np.ndarray
+    scene: object = None
+    shape_key: int = -1      # the Mitsuba shape of this surface in its scene (reinterpreted pointer)
+    slot: np.ndarray | None = None   # rigid surfaces: where the atlas puts the sphere's centre
+
+    @classmethod
+    def build(cls, name: str, kind: str, vertices, faces, vertex_normals=None, crease_angle=None) -> Surface:
+        """The surface of a mesh (own frame): corner normals (module docstring), curvature radius,
+        flatness, bounding sphere and centroid."""
+        from .po_render import CREASE_ANGLE, curvature_radius, flat_shaded, shading_normals
+
+        v = np.ascontiguousarray(vertices, dtype=float)
+        f = np.ascontiguousarray(faces, dtype=np.int64)
+        crease = CREASE_ANGLE if crease_angle is None else float(crease_angle)
+        normals = shading_normals(v, f, crease)
+        if vertex_normals is not None:
+            given = np.asarray(vertex_normals, float)[f]                      # [F, 3, 3]
+            facet = np.cross(v[f[:, 1]] - v[f[:, 0]], v[f[:, 2]] - v[f[:, 0]])
+            facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-300)
+            agrees = np.abs(np.einsum("fci,fi->fc", given, facet)) >= np.cos(crease)
+            normals = np.where(agrees[..., None], given, normals)
+        lo, hi = v.min(axis=0), v.max(axis=0)
+        centre = 0.5 * (lo + hi)
+        radius = float(np.max(np.linalg.norm(v - centre, axis=1))) if len(v) else 0.0
+        return cls(name, kind, v, f, normals, curvature_radius(v, f, normals), flat_shaded(normals), centre,
+                   radius * (1 + 1e-6) + 1e-6, area_centroid(v, f))
+
+
+def mitsuba_mesh(name: str, vertices, faces):
+    """A Mitsuba triangle mesh of ``vertices [V, 3]`` (float32) and ``faces [F, 3]``."""
+    from ..sionna_rt import mi
+
+    v = np.ascontiguousarray(np.asarray(vertices, dtype=np.float32).ravel())
+    f = np.ascontiguousarray(np.asarray(faces, dtype=np.uint32).ravel())
+    mesh = mi.Mesh(name, len(v) // 3, len(f) // 3, has_vertex_normals=False, has_vertex_texcoords=False)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = mi.Float(v)
+    params["faces"] = mi.UInt32(f)
+    params.update()
+    return mesh
+
+
+def mitsuba_scene(meshes: dict):
+    """A Mitsuba scene of ``{name: mesh}`` and ``{name: shape key}``: each shape's pointer
+    reinterpreted as an integer, the value a ray cast reports for a hit on it."""
+    from ..sionna_rt import dr, mi
+
+    scene = mi.load_dict({"type": "scene", **{f"s{k}": m for k, m in enumerate(meshes.values())}})
+    keys = {}
+    for name, mesh in meshes.items():
+        keys[name] = int(dr.reinterpret_array(mi.UInt32, mi.ShapePtr(mesh)).numpy()[0])
+    return scene, keys
+
+
+@dataclass
+class Placement:
+    """Where a surface is in the current frame: ``rotation [3, 3]`` and ``translation [3]`` (own frame
+    -> world), and its velocity field: ``motion`` (:class:`~sionnafmcw.animation.rigid.RigidMotion`:
+    centroid velocity and angular velocity) or ``vertex_velocity [V, 3]`` (deforming meshes, world)
+    or the uniform ``velocity [3]``."""
+
+    rotation: np.ndarray
+    translation: np.ndarray
+    velocity: np.ndarray
+    motion: RigidMotion | None = None
+    vertex_velocity: np.ndarray | None = None
+
+    def to_world(self, points) -> np.ndarray:
+        return np.asarray(points, float) @ self.rotation.T + self.translation
+
+
+@dataclass
+class SurfaceWorld:
+    """Every object's :class:`Surface` (in the order of ``names``), the static group's scene, and each
+    moving surface's placement in the current frame (module docstring)."""
+
+    names: list
+    surfaces: list
+    static_scene: object = None
+    static_keys: dict = field(default_factory=dict)      # shape key -> object index (static group)
+    placements: list = field(default_factory=list)       # per object: Placement of the current frame
+    frame: int | None = None
+    atlas: object = None                                 # the rigid surfaces' scene (module docstring)
+    atlas_indices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    _opaque: dict = field(default_factory=dict, repr=False)   # per surface: its placement as opaque Dr.Jit values
+
+    @property
+    def index(self) -> dict:
+        return {n: k for k, n in enumerate(self.names)}
+
+    @classmethod
+    def build(cls, animation, names, kinds: dict | None = None, crease_angle=None) -> SurfaceWorld:
+        """The surfaces of ``names`` from frame 0 of ``animation``: ``kinds[name]`` (default
+        :func:`surface_kinds`) is ``"static"``, ``"rigid"`` or ``"deforming"``. Rigid surfaces are
+        built in the PLY's own frame, the others in the world."""
+        from ..animation.ply import read_ply_cached
+
+        kinds = surface_kinds(animation, names) if kinds is None else kinds
+        surfaces, static_meshes = [], {}
+        for name in names:
+            kind = kinds[name]
+            info = animation.frame_xml(0).shapes[name]
+            ply = read_ply_cached(info.filename)
+            if kind == "rigid":
+                v, normals = ply.vertices, ply.vertex_normals
+            else:
+                mesh = animation.mesh(0, name)
+                v = mesh.vertices
+                normals = ply.vertex_normals
+                if normals is not None:   # normals transform with the inverse transpose
+                    normals = normals @ np.linalg.inv(info.to_world[:3, :3])
+                    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+            surface = Surface.build(name, kind, v, ply.faces, normals, crease_angle)
+            if kind == "static":
+                static_meshes[name] = mitsuba_mesh(name, surface.vertices, surface.faces)
+            elif kind == "deforming":
+                surface.scene, keys = mitsuba_scene({name: mitsuba_mesh(name, surface.vertices, surface.faces)})
+                surface.shape_key = keys[name]
+            surfaces.append(surface)
+        world = cls(list(names), surfaces)
+        index = world.index
+        if static_meshes:
+            world.static_scene, keys = mitsuba_scene(static_meshes)
+            world.static_keys = {key: index[name] for name, key in keys.items()}
+            for name, key in keys.items():
+                surfaces[index[name]].shape_key = key
+        rigid = [k for k, surface in enumerate(surfaces) if surface.kind == "rigid"]
+        if rigid:
+            world.atlas_indices = np.array(rigid, dtype=np.int64)
+            spacing = 2.0 * max(surfaces[k].radius for k in rigid) * 1.01 + 1e-3
+            side = int(np.ceil(len(rigid) ** (1 / 3)))
+            meshes = {}
+            for j, k in enumerate(rigid):
+                cell = np.array([j % side, (j // side) % side, j // (side * side)], float) - (side - 1) / 2
+                surfaces[k].slot = cell * spacing
+                meshes[surfaces[k].name] = mitsuba_mesh(surfaces[k].name,
+                                                        surfaces[k].vertices - surfaces[k].centre + surfaces[k].slot,
+                                                        surfaces[k].faces)
+            world.atlas, keys = mitsuba_scene(meshes)
+            for name, key in keys.items():
+                surfaces[index[name]].shape_key = key
+        world.placements = [Placement(np.eye(3), np.zeros(3), np.zeros(3)) for _ in surfaces]
+        return world
+
+    # ------------------------------------------------------------------ per frame
+    def place(self, animation, frame: int, loaded, velocities: dict) -> None:
+        """The placements of ``frame``: a rigid surface's rotation, translation and velocity field from
+        :meth:`~sionnafmcw.animation.Animation.motion`; a deforming surface's vertices (from
+        ``loaded``, the :class:`~.loaded_scene.LoadedScene` of the frame: its scene is rewritten when
+        they changed) and vertex velocities; every surface's uniform ``velocities[name]`` (m/s, the
+        object's manifest velocity) where it has no field."""
+        for k, (name, surface) in enumerate(zip(self.names, self.surfaces)):
+            v = np.asarray(velocities.get(name, np.zeros(3)), float)
+            if surface.kind == "rigid":
+                m = animation.motion(frame, name)
+                if m is None:
+                    raise ValueError(f"{animation.frame(frame).xml}: rigid object {name!r} has a to_world that "
+                                     "scales or shears its mesh in this frame")
+                spin = np.any(m.angular_velocity != 0)
+                self.placements[k] = Placement(m.rotation, m.translation, v, m if spin else None)
+            elif surface.kind == "deforming":
+                vertices = loaded.vertices[name]
+                if vertices.shape != surface.vertices.shape or not np.array_equal(vertices, surface.vertices):
+                    self._rewrite(surface, vertices)
+                self.placements[k] = Placement(np.eye(3), np.zeros(3), v,
+                                               vertex_velocity=loaded.vertex_velocity.get(name))
+            else:
+                self.placements[k] = Placement(np.eye(3), np.zeros(3), v)
+        self.frame = frame
+
+    @staticmethod
+    def _rewrite(surface: Surface, vertices) -> None:
+        """A deforming surface's vertices of this frame (its scene updated; its normals recomputed)."""
+        from ..sionna_rt import dr, mi
+        from .po_render import curvature_radius, flat_shaded, shading_normals
+
+        surface.vertices = np.ascontiguousarray(vertices, dtype=float)
+        surface.corner_normals = shading_normals(surface.vertices, surface.faces)
+        surface.curvature_radius = curvature_radius(surface.vertices, surface.faces, surface.corner_normals)
+        surface.flat = flat_shaded(surface.corner_normals)
+        lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
+        surface.centre = 0.5 * (lo + hi)
+        surface.radius = float(np.max(np.linalg.norm(surface.vertices - surface.centre, axis=1))) * (1 + 1e-6) + 1e-6
+        surface.centroid = area_centroid(surface.vertices, surface.faces)
+        params = mi.traverse(surface.scene)
+        key = next(k for k in params.keys() if k.endswith("vertex_positions"))
+        params[key] = mi.Float(np.ascontiguousarray(surface.vertices.ravel(), dtype=np.float32))
+        params.update()
+        dr.eval()
+
+    def _opaque_placement(self, j: int):
+        """Surface ``j``'s sphere centre (world), radius, rotation and slot as opaque Dr.Jit values (so the
+        cast's kernel does not depend on the frame), made once per frame."""
+        from ..sionna_rt import dr, mi
+
+        cache = self._opaque.get(j)
+        if cache is None or cache[0] is not self.placements[j]:
+            surface, place = self.surfaces[j], self.placements[j]
+            opaque = lambda x: dr.opaque(mi.Float, float(x))  # noqa: E731
+            slot = surface.slot if surface.slot is not None else np.zeros(3)
+            cache = (place, mi.Point3f(*[opaque(x) for x in place.to_world(surface.centre)]), opaque(surface.radius),
+                     [[opaque(place.rotation[a, b]) for b in range(3)] for a in range(3)], [opaque(x) for x in slot])
+            self._opaque[j] = cache
+        return cache[1:]
+
+    def moving(self) -> list[int]:
+        """Indices of the surfaces that are not static."""
+        return [k for k, s in enumerate(self.surfaces) if s.kind != "static"]
+
+    def bounding_spheres(self, indices=None):
+        """World centres ``[K, 3]`` and radii ``[K]`` of the bounding spheres of ``indices`` (default: the moving ones)."""
+        indices = self.moving() if indices is None else list(indices)
+        centres = np.array([self.placements[k].to_world(self.surfaces[k].centre) for k in indices]).reshape(-1, 3)
+        radii = np.array([self.surfaces[k].radius for k in indices], float)
+        return centres, radii
+
+    # ------------------------------------------------------------------ casting
+    def cast(self, origins, directions, group: str = "all"):
+        r"""Nearest hits of rays ``origins [K, 3]`` (or one ``[3]``) + t ``directions [K, 3]`` (unit,
+        world) over the surfaces of ``group`` (:data:`GROUPS`): ``(valid [K] bool, t [K] (m),
+        obj [K] (object index, -1 where nothing is hit), triangle [K], barycentric [K, 2])``.
+
+        One Dr.Jit computation (one kernel, compiled once per scene: every per-frame value is
+        opaque): the static scene's hit, then for every moving surface, where the ray passes through
+        its bounding sphere before the nearest hit so far
+        (:math:`t_c = (\mathbf c - \mathbf o)\cdot\hat{\mathbf d}`, :math:`d^2 = |\mathbf c - \mathbf o|^2 - t_c^2 \le r^2`,
+        entering at :math:`t_c - h`, :math:`h = \sqrt{r^2 - d^2}`), the ray moved into its slot of the
+        atlas (:math:`\mathbf R^T(\mathbf o + t_{in}\hat{\mathbf d} - \mathbf c) + \mathbf s`,
+        :math:`\mathbf R^T\hat{\mathbf d}`, ``maxt`` to where it leaves the sphere) or, for a deforming
+        surface, cast into its own scene; the nearer hit wins."""
+        from ..sionna_rt import aligned_float, dr, mi
+
+        if group not in GROUPS:
+            raise ValueError(f"SurfaceWorld.cast: group={group!r} is unknown; choose one of {', '.join(GROUPS)}")
+        d = np.asarray(directions, float)
+        k = d.shape[0]
+        o = np.broadcast_to(np.asarray(origins, float), (k, 3))
+        if k == 0:
+            return (np.zeros(0, bool), np.zeros(0), np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
+        origin = mi.Point3f(*[aligned_float(o[:, i]) for i in range(3)])
+        direction = mi.Vector3f(*[aligned_float(d[:, i]) for i in range(3)])
+        best = dr.full(mi.Float, np.inf, k)
+        obj = dr.full(mi.Int32, -1, k)
+        prim = dr.zeros(mi.UInt32, k)
+        u, v = dr.zeros(mi.Float, k), dr.zeros(mi.Float, k)
+        if group in ("all", "static") and self.static_scene is not None:
+            pi = self.static_scene.ray_intersect_preliminary(mi.Ray3f(origin, direction), coherent=True)
+            key = dr.reinterpret_array(mi.UInt32, pi.shape)
+            table = np.full(max(self.static_keys) + 1, -1, dtype=np.int32)
+            table[list(self.static_keys)] = list(self.static_keys.values())
+            index = dr.gather(mi.Int32, mi.Int32(table), dr.minimum(key, len(table) - 1))
+            hit = pi.is_valid() & (index >= 0)
+            best = dr.select(hit, pi.t, best)
+            obj, prim = dr.select(hit, index, obj), dr.select(hit, pi.prim_index, prim)
+            u, v = dr.select(hit, pi.prim_uv.x, u), dr.select(hit, pi.prim_uv.y, v)
+        if group in ("all", "moving"):
+            for j in self.moving():
+                surface = self.surfaces[j]
+                centre, radius, r, slot = self._opaque_placement(j)
+                oc = centre - origin
+                tc = dr.dot(oc, direction)
+                d2 = dr.squared_norm(oc) - tc * tc
+                h = dr.sqrt(dr.maximum(radius * radius - d2, 0.0))
+                near = (d2 <= radius * radius) & (tc + h >= 0.0) & (tc - h <= best)
+                if surface.kind == "rigid":
+                    enter = dr.maximum(tc - h, 0.0)
+                    start = origin + direction * enter - centre
+                    ray = mi.Ray3f(mi.Point3f(*[r[0][a] * start.x + r[1][a] * start.y + r[2][a] * start.z + slot[a]
+                                                for a in range(3)]),
+                                   mi.Vector3f(*[r[0][a] * direction.x + r[1][a] * direction.y + r[2][a] * direction.z
+                                                 for a in range(3)]))
+                    ray.maxt = dr.maximum(dr.minimum(tc + h, best) - enter, 0.0)
+                    pi = self.atlas.ray_intersect_preliminary(ray, coherent=True, active=near)
+                    t = pi.t + enter
+                else:
+                    pi = surface.scene.ray_intersect_preliminary(mi.Ray3f(origin, direction), coherent=True,
+                                                                 active=near)
+                    t = pi.t
+                hit = near & pi.is_valid() & (t < best)
+                best = dr.select(hit, t, best)
+                obj, prim = dr.select(hit, j, obj), dr.select(hit, pi.prim_index, prim)
+                u, v = dr.select(hit, pi.prim_uv.x, u), dr.select(hit, pi.prim_uv.y, v)
+        dr.eval(best, obj, prim, u, v)
+        obj = np.asarray(obj.numpy(), dtype=np.int64)
+        valid = obj >= 0
+        with np.errstate(invalid="ignore"):
+            uv = np.stack([np.asarray(u.numpy(), dtype=np.float64), np.asarray(v.numpy(), dtype=np.float64)], axis=-1)
+        uv[~valid] = 0.0
+        return valid, np.asarray(best.numpy(), dtype=np.float64), obj, np.asarray(prim.numpy(), dtype=np.int64), uv
+
+
+def surface_kinds(animation, names) -> dict:
+    """``{name: kind}``: ``"deforming"`` when an object's PLY changes between frames or carries per-vertex
+    velocities, ``"rigid"`` when its ``to_world`` changes or it has a velocity or an angular velocity
+    in some frame (a spinning wheel keeps its mesh and its transform), ``"static"`` otherwise: the
+    objects that never move, which the static PO render and the static scene cache take once."""
+    from ..animation.ply import read_ply_cached
+
+    first = animation.frame_xml(0).shapes
+    kinds = {}
+    for name in names:
+        info0 = first[name]
+        kind = "static"
+        if read_ply_cached(info0.filename).vertex_velocities is not None:
+            kind = "deforming"
+        for i in range(animation.num_frames):
+            info = animation.frame_xml(i).shapes.get(name)
+            if info is None or info.filename != info0.filename:   # (a frame without it: LoadedScene says so)
+                kind = "deforming"
+                break
+            fr = animation.frame(i)
+            if kind == "static" and (not np.array_equal(info.to_world, info0.to_world)
+                                     or np.any(fr.objects.get(name, np.zeros(3)) != 0)
+                                     or np.any(fr.angular_velocities.get(name, np.zeros(3)) != 0)):
+                kind = "rigid"
+        kinds[name] = kind
+    return kinds
+
+
+__all__ = ["GROUPS", "Placement", "Surface", "SurfaceWorld", "mitsuba_mesh", "mitsuba_scene", "surface_kinds"]
