@@ -19,7 +19,7 @@ from sionnafmcw.animation import load_animation
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.engines import PathEngine, PathEngineError
 from sionnafmcw.engines.path import specular_chains
-from sionnafmcw.engines.po_render import curvature_radius, merge_contributions, shading_normals
+from sionnafmcw.engines.po_render import curvature_radius, shading_normals
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.scenes import meshes
 from sionnafmcw.scenes.registry import build
@@ -342,16 +342,21 @@ def test_turning_segment_echoes_do_not_depend_on_the_frames_before(tmp_path, rig
 
 
 def test_merge_keeps_the_channel():
-    """Merging contributions per delay/Doppler cell keeps every pair's channel at the carrier exactly."""
+    """Merging contributions per cell keeps every pair's channel at the carrier exactly, whatever the
+    budget, and keeps labels apart."""
+    from sionnafmcw.engines.po_merge import merge_contributions
+
     rng = np.random.default_rng(1)
     p = 500
     tau = 2 * 3.0 / SPEED_OF_LIGHT + rng.uniform(0, 1e-9, (2, 3, p))
-    a = rng.normal(size=(2, 3, p)) + 1j * rng.normal(size=(2, 3, p))
+    a = (rng.normal(size=(2, 3, p)) + 1j * rng.normal(size=(2, 3, p))) * 1e-9
     dop = rng.uniform(-10, 10, (2, 3, p))
     labels = np.where(np.arange(p) % 2, "x", "y")
-    ma, mt, md, ml = merge_contributions(a, tau, dop, labels, 1e-11, 5.0, RADAR.fc)
-    assert ma.shape[-1] < p and set(ml) == {"x", "y"}
+    u = np.tile([1.0, 0.0, 0.0], (p, 1))
+    merged = merge_contributions(a, tau, dop, labels, u, RADAR, budget=np.inf)
+    ma, mt, ml = merged.a, merged.tau, merged.labels
+    assert merged.fraction is not None and ma.shape[-1] < p and set(ml) == {"x", "y"}
     for lab in ("x", "y"):
         h = np.sum(a[..., labels == lab] * np.exp(-2j * np.pi * RADAR.fc * tau[..., labels == lab]), axis=-1)
         hm = np.sum(ma[..., ml == lab] * np.exp(-2j * np.pi * RADAR.fc * mt[..., ml == lab]), axis=-1)
-        assert np.allclose(h, hm, rtol=1e-9, atol=1e-12)
+        assert np.allclose(h, hm, rtol=1e-9, atol=1e-21)

@@ -11,8 +11,10 @@ rendered whole). Tolerances:
   output: 1e-6);
 * with the merge (default) a blocked sample leaves its cell at the cell's delay instead of the
   cell being formed without it: the channel at the carrier is unchanged by any merge, so it agrees
-  to 1e-6, and the cube within the merge's own bound (each merged sample off by at most
-  ``2 pi MERGE_FRACTION`` of phase, twice: once per merge).
+  to 1e-6, and the cube within the noise budget :math:`E_{max}` per sample
+  (:func:`~sionnafmcw.synthesis.noise_error_budget`: each merge stays within its share of it,
+  :mod:`~sionnafmcw.engines.po_merge`, and what a blocked sample changes in its cell is a few per
+  cent of one cell's).
 """
 
 from __future__ import annotations
@@ -24,9 +26,8 @@ from animation_helpers import box_mesh, plate_mesh, write_moving_mesh_animation
 from sionnafmcw import RadarConfig
 from sionnafmcw.animation import load_animation
 from sionnafmcw.engines import PathEngine
-from sionnafmcw.engines.po_render import MERGE_FRACTION
 from sionnafmcw.engines.static_scene import Spheres
-from sionnafmcw.synthesis import synthesize
+from sionnafmcw.synthesis import noise_error_budget, synthesize
 
 RADAR = RadarConfig.preset("walk-77ghz").replace(num_chirps=16)
 MATERIALS = {
@@ -91,13 +92,10 @@ def test_static_scene_with_merge_keeps_the_channel(crossing):
         unmerged.echoes(crossing, RADAR, f)
         h_a, h_b = carrier_channel(a), carrier_channel(b)
         np.testing.assert_allclose(h_b, h_a, rtol=1e-6, atol=1e-6 * np.abs(h_a).max())
-        # each merged contribution is off by at most 2 pi MERGE_FRACTION of phase at any sample (delay
-        # and Doppler cells of MERGE_FRACTION of the resolutions, pi each), in both merges
-        po = cached.last_parts["po"]
-        total = np.sum(np.abs(unmerged.last_parts["po"].a), axis=-1).max()
-        bound = 2 * (2 * np.pi * MERGE_FRACTION) * total * np.sqrt(RADAR.tx_power)
-        assert np.abs(cube(b, cache) - cube(a)).max() <= bound, f"frame {f}"
-        assert po is not None
+        exact = cube(unmerged.last_parts["po"]) + cube(unmerged.last_parts["traced"])
+        assert np.abs(cube(b, cache) - cube(a)).max() <= noise_error_budget(RADAR), f"frame {f}"
+        assert np.abs(cube(a) - exact).max() <= noise_error_budget(RADAR), f"frame {f}"
+        assert cached.last_parts["po"] is not None
 
 
 def test_static_block_is_the_same_every_frame(crossing):

@@ -72,7 +72,8 @@ from __future__ import annotations
 import importlib
 import inspect
 
-from .base import Engine, EngineError, FrameStats, SceneGeometryError, SceneLoadError
+from .base import Engine, FrameStats
+from .errors import EngineError, PathEngineError, PixelEngineError, SceneGeometryError, SceneLoadError
 
 _REGISTRY: dict[str, object] = {}  # name -> engine class or "module:Class" (imported on first use)
 
@@ -153,8 +154,8 @@ register("pixel", "sionnafmcw.engines.pixel:PixelEngine")
 
 _LAZY = {
     "LoadedScene": "loaded_scene",
-    "PathEngine": "path", "PathEngineError": "path",
-    "PixelEngine": "pixel", "PixelEngineError": "pixel", "PixelGrid": "pixel", "PixelRender": "pixel",
+    "PathEngine": "path",
+    "PixelEngine": "pixel", "PixelGrid": "pixel_grid", "PixelRender": "pixel_grid",
 }
 
 
@@ -166,5 +167,5 @@ def __getattr__(name):
     raise AttributeError(f"module 'sionnafmcw.engines' has no attribute {name!r}")
 
 
-__all__ = ["Engine", "EngineError", "FrameStats", "SceneGeometryError", "SceneLoadError", "create", "engine_class",
-           "names", "options", "register", *_LAZY]
+__all__ = ["Engine", "EngineError", "FrameStats", "PathEngineError", "PixelEngineError", "SceneGeometryError",
+           "SceneLoadError", "create", "engine_class", "names", "options", "register", *_LAZY]

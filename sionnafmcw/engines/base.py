@@ -36,18 +36,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..animation import Animation, RadarPose
-
-
-class EngineError(ValueError):
-    """An engine cannot run this animation / radar / option combination; the message says why."""
-
-
-class SceneGeometryError(EngineError):
-    """A frame's geometry cannot be written into the loaded scene (the message names the file)."""
-
-
-class SceneLoadError(EngineError):
-    """Sionna could not load a frame's scene XML (the message names the file)."""
+from .errors import EngineError, SceneGeometryError, SceneLoadError
 
 
 @dataclass
@@ -211,4 +200,4 @@ class Engine(abc.ABC):
         return None if self._loaded is None else self._loaded.scene
 
 
-__all__ = ["Engine", "EngineError", "FrameStats", "SceneGeometryError", "SceneLoadError", "resolve_pose"]
+__all__ = ["Engine", "FrameStats", "resolve_pose"]

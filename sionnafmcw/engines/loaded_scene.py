@@ -30,7 +30,7 @@ import numpy as np
 from ..animation import Animation
 from ..materials import apply_custom_materials, check_scene_materials
 from ..sionna_rt import dr, load_scene_at, mi
-from .base import SceneGeometryError, SceneLoadError
+from .errors import SceneGeometryError, SceneLoadError
 
 
 # ---------------------------------------------------------------------------------------- loading

@@ -229,7 +229,8 @@ from ..sionna_rt import (
     INVALID_SHAPE, AntennaArray, InteractionType, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi,
     set_min_segment_length, solve_fields, trace_candidates,
 )
-from .base import Engine, EngineError
+from .base import Engine
+from .errors import PathEngineError
 from .loaded_scene import barycentric_weights, interpolate
 from .po_render import radio_material
 from .surfaces import SurfaceWorld
@@ -254,10 +255,6 @@ DUPLICATE_POINT_TOLERANCE = 0.5
 
 _SPECULAR_TYPES = (int(InteractionType.SPECULAR), int(InteractionType.REFRACTION))
 _STATIC_BLOCKS = itertools.count()   # numbers the static echo blocks built in this process (their static_key)
-
-
-class PathEngineError(EngineError):
-    """The path engine cannot run this animation / radar combination; the message says why."""
 
 
 @dataclass
@@ -734,7 +731,7 @@ class PathEngine(Engine):
             po = StaticPO.build(state.surfaces, objects, centre, rot, wavelength, self._po_depth,
                                 self.po_samples_across,
                                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
-                                lambda *c: self._po_merge(radar, *c, return_cells=True))
+                                lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"))
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
         block = Echoes.empty(radar.num_tx, radar.num_rx) if not parts else \
             (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
@@ -773,16 +770,17 @@ class PathEngine(Engine):
         a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
         return a, tau, doppler, bounce.samples.labels
 
-    def _po_merge(self, radar, a, tau, doppler, labels, return_cells: bool = False):
-        """The PO contributions merged per cell of :data:`~.po_render.MERGE_FRACTION` of the resolutions
-        (``po_merge``; None without merging when ``return_cells``, else the contributions unchanged)."""
-        from .po_render import MERGE_FRACTION, merge_contributions
+    def _po_merge(self, radar, bounce, contributions, centre, rot, block: str):
+        """A render's PO contributions ``(a, tau, doppler, labels)`` merged within the ``block``'s share
+        (``"static"`` or ``"frame"``, :data:`~sionnafmcw.synthesis.STATIC_BUDGET_SHARE`) of the merge
+        budget (:func:`~sionnafmcw.engines.po_merge.merge_contributions`); None without ``po_merge``."""
+        from ..synthesis import STATIC_BUDGET_SHARE
+        from .po_merge import merge_budget, merge_contributions
 
         if not self.po_merge:
-            return None if return_cells else (a, tau, doppler, labels)
-        return merge_contributions(a, tau, doppler, labels, delay_cell=MERGE_FRACTION / radar.bandwidth,
-                                   doppler_cell=MERGE_FRACTION / radar.cpi_duration, frequency=radar.fc,
-                                   return_cells=return_cells)
+            return None
+        share = STATIC_BUDGET_SHARE if block == "static" else 1.0 - STATIC_BUDGET_SHARE
+        return merge_contributions(*contributions, bounce.directions(centre, rot), radar, merge_budget(radar, share))
 
     def _po_echoes(self, animation: Animation, radar, pose: RadarPose, rigid: dict, wavelength: float, static=None):
         """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
@@ -817,9 +815,11 @@ class PathEngine(Engine):
             if not np.any(keep):
                 continue
             num_samples += int(keep.sum())
-            a, tau, doppler, labels = self._po_merge(
-                radar, *self._po_contributions(b.select(keep), radar, tx_w, rx_w, rot, wavelength))
-            echoes.append(Echoes(a, tau, doppler, labels))
+            kept = b.select(keep)
+            contributions = self._po_contributions(kept, radar, tx_w, rx_w, rot, wavelength)
+            merged = self._po_merge(radar, kept, contributions, centre, rot, "frame")
+            echoes.append(Echoes(*contributions) if merged is None else
+                          Echoes(merged.a, merged.tau, merged.doppler, merged.labels))
         figures = {"po_rays": int(sum(b.num_rays for b in renders)), "po_samples": num_samples,
                    "po_contributions": int(sum(e.num_contributions for e in echoes)),
                    "po_seconds": time.perf_counter() - t0}

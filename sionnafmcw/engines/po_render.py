@@ -225,6 +225,13 @@ class SceneObject:
         interpolated normal is then that normal and its shape operator is zero, exactly."""
         return self.surface.flat
 
+    def facet_normals(self, triangle) -> np.ndarray:
+        """Unit facet normals ``[K, 3]`` (world, the surface's winding) of the surface triangles ``triangle [K]``."""
+        v = self.surface.vertices[self.surface.faces[triangle]]
+        n = np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0])
+        n /= np.maximum(np.linalg.norm(n, axis=1, keepdims=True), 1e-300)
+        return n @ self.placement.rotation.T
+
     def hit_geometry(self, triangle, bary):
         r"""Position, shading normal, velocity ``[K, 3]`` (world) and the normal's shape operator
         ``[K, 3, 3]`` (:func:`~sionnafmcw.physical_optics.interpolated_normals`) of hits on triangles
@@ -338,6 +345,17 @@ class Render:
         n = s.normal * np.where(np.einsum("pi,pi->p", s.normal, k_in) > 0, -1.0, 1.0)[:, None]
         return n, k_in - 2 * np.einsum("pi,pi->p", n, k_in)[:, None] * n
 
+    def directions(self, centre, rotation) -> tuple[np.ndarray, np.ndarray]:
+        """Unit vectors ``[P, 3]`` in the radar frame (``rotation``: radar -> world) from ``centre`` (the
+        array's phase centre) to every sample's first interaction point and to the sample: the
+        directions of the chain's first and last segment, which the PO merge keys on
+        (:func:`~sionnafmcw.engines.po_merge.merge_cells`)."""
+        out = []
+        for points in (self.first_point, self.samples.position):
+            d = points - np.asarray(centre, float)
+            out.append((d / np.linalg.norm(d, axis=1, keepdims=True)) @ np.asarray(rotation, float))
+        return out[0], out[1]
+
     def carries_po(self) -> np.ndarray:
         """``[P]`` bool: the samples with a coherent share, :math:`S < 1` and (from bounce 2 on) a
         non-zero chain reflection; the others carry no PO echo."""
@@ -427,9 +445,22 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
                           triangle=triangle, barycentric=bary, labels=names[obj_index], curvature=curvature), direction
 
 
+def _clip_box(start, width, low, high, half_az, half_el):
+    """The part of an angular box (:func:`object_box`) within the field of view ``|az| <= half_az``,
+    ``|el| <= half_el`` (rad, ``half_az <= pi/2``), as ``(start, width, low, high)``, or None."""
+    a0 = float(np.mod(start + np.pi, 2 * np.pi) - np.pi)
+    pieces = [(a0, a0 + width)] if a0 + width <= np.pi else [(a0, np.pi), (-np.pi, a0 + width - 2 * np.pi)]
+    parts = [(max(lo, -half_az), min(hi, half_az)) for lo, hi in pieces if min(hi, half_az) > max(lo, -half_az)]
+    low, high = max(low, -half_el), min(high, half_el)
+    if not parts or high <= low:
+        return None
+    lo, hi = min(p[0] for p in parts), max(p[1] for p in parts)
+    return lo, hi - lo, low, high
+
+
 def render(world, objects: list[SceneObject], origin, rotation, wavelength: float, *, targets=None,
            group: str = "all", samples_across: int = 16, max_rays_per_object: int = MAX_RAYS_PER_OBJECT,
-           step_scale: float = 1.0) -> Render:
+           step_scale: float = 1.0, field_of_view=None) -> Render:
     r"""First-bounce PO render from ``origin`` (world, m) of the ``targets`` (indices into ``objects``,
     default all) of a :class:`~.surfaces.SurfaceWorld` placed in the frame; ``objects`` are the
     world's :func:`scene_objects`, in its order.
@@ -441,7 +472,8 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     times ``step_scale`` (for convergence checks). All the targets' rays are cast at once over the
     surfaces of ``group`` (:meth:`~.surfaces.SurfaceWorld.cast`); a ray keeps its hit only where the
     nearest hit is on the object it was cast for. Raises :class:`RenderError` naming the object when
-    its render would cast more than ``max_rays_per_object`` rays.
+    its render would cast more than ``max_rays_per_object`` rays. ``field_of_view`` ``(half_az,
+    half_el)`` (rad, radar frame) keeps each object's box within it (the pixel engine's camera).
     """
     origin = np.asarray(origin, float)
     rotation = np.asarray(rotation, float)
@@ -453,6 +485,11 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
         start, width, low, high, r_min, r_max = object_box(obj.box_vertices, origin, rotation)
         if r_min <= 0:
             raise RenderError(f"po_render: the render origin lies on object {obj.name!r}")
+        if field_of_view is not None:
+            box = _clip_box(start, width, low, high, *field_of_view)
+            if box is None:
+                continue
+            start, width, low, high = box
         extent = float(np.linalg.norm(obj.box_vertices.max(axis=0) - obj.box_vertices.min(axis=0)))
         step = render_resolution(extent, r_max, wavelength, curvature_radius=obj.curvature_radius,
                                  samples_across=samples_across) * float(step_scale)
@@ -601,119 +638,6 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     return a, tau, doppler
 
 
-# ---------------------------------------------------------------------------------------- merging
-#: Cell size of the PO merge, as a share of the radar's range and velocity resolutions, in both
-#: engines (:func:`merge_contributions`; :func:`sionnafmcw.engines.pixel.merge_contributions`).
-#: The merge error is bounded relative to :math:`\sum|a|` of a cell, not to its echo, so cells
-#: whose PO integral nearly cancels (off-specular surfaces) need small cells. Measured on a
-#: circle-walk frame at the path engine's defaults (``python benchmarks/po_merge.py``: merged cube
-#: against the unmerged one, 3.8e5 PO samples per pair): cells of 1/16 / 1/64 / 1/256 give
-#: 7.2e4 / 1.2e5 / 1.8e5 contributions, a cube difference of -18.6 / -26.9 / -32.6 dB and a
-#: largest change of a range-Doppler cell within 40 dB of the peak (clutter removed) of
-#: 9.4 / 4.4 / 0.08 dB; a 0.2 m plate turned 0.3 rad: 4.0 / 0.27 / 0.04 dB; hence 1/256.
-MERGE_FRACTION = 1 / 256
-
-
-def merge_contributions(a, tau, doppler, labels, delay_cell: float, doppler_cell: float, frequency: float,
-                        return_cells: bool = False):
-    r"""Sum contributions that the radar cannot tell apart into one per cell and element pair.
-
-    ``a, tau, doppler`` ``[M, N, P]``, ``labels [P]``. Contributions of one label whose centre-pair
-    delay :math:`\tau_{00}` and Doppler fall in the same cell of ``delay_cell`` (s) x
-    ``doppler_cell`` (Hz) become, for every pair, one contribution at the cell's mean delay
-    :math:`\bar\tau` and mean Doppler :math:`\bar f` with
-    :math:`\bar a = \sum_i a_i e^{-j2\pi f_c(\tau_i - \bar\tau)}` (``frequency`` :math:`f_c`): the
-    channel at the carrier is unchanged, and what is lost is the beat and Doppler phase across a
-    cell, at most :math:`\pi B\,\delta\tau` and :math:`\pi T_{CPI}\,\delta f` at the ends of a chirp
-    and of the CPI (:math:`\pi/256` for cells of :data:`MERGE_FRACTION` = 1/256 of the range and
-    velocity resolution).
-    Returns ``(a, tau, doppler, labels)`` ``[M, N, G]``, ``[G]``, the cells in the order of their
-    first contribution (contributions that share no cell come back in their order); with
-    ``return_cells`` also the cell of every contribution ``[P]`` (index into ``G``), so that contributions can later be
-    taken out of their cell at the same :math:`\bar\tau` (:mod:`~sionnafmcw.engines.static_scene`).
-    """
-    a = np.asarray(a)
-    m, n, p = a.shape
-    if p == 0:
-        out = (a, tau, doppler, np.asarray(labels))
-        return (*out, np.zeros(0, dtype=np.int64)) if return_cells else out
-    names, lab = label_codes(labels)
-    i_tau = np.floor(tau[0, 0] / delay_cell).astype(np.int64)
-    i_dop = np.floor(doppler[0, 0] / doppler_cell).astype(np.int64)
-    # one int64 key per contribution (label, delay cell, Doppler cell): a 1-D unique is fast
-    i_tau -= i_tau.min()
-    i_dop -= i_dop.min()
-    n_tau, n_dop = int(i_tau.max()) + 1, int(i_dop.max()) + 1
-    keys = (lab.astype(np.int64) * n_tau + i_tau) * n_dop + i_dop
-    # cells numbered in the order of their first contribution
-    _, first, group, counts = np.unique(keys, return_index=True, return_inverse=True, return_counts=True)
-    order = np.argsort(first)
-    rank = np.empty_like(order)
-    rank[order] = np.arange(order.size)
-    group, counts, first = rank[group.reshape(-1)], counts[order], first[order]
-    g = counts.size
-    flat_a = a.reshape(m * n, p)
-    flat_tau = np.asarray(tau).reshape(m * n, p)
-    flat_dop = np.asarray(doppler).reshape(m * n, p)
-    # a contribution alone in its cell is its own merge (mean delay = its delay, phase factor 1):
-    # every cell starts as its first contribution (one plain copy when no cell is shared, no
-    # gather), and the shared cells are summed below
-    if g == p:
-        out_a, out_tau, out_dop = flat_a.copy(), flat_tau.copy(), flat_dop.copy()
-    else:
-        out_a = np.take(flat_a, first, axis=1)
-        out_tau = np.take(flat_tau, first, axis=1)
-        out_dop = np.take(flat_dop, first, axis=1)
-    members = np.flatnonzero(counts[group] > 1)
-    if members.size:
-        cells, cell = np.unique(group[members], return_inverse=True)
-        c = cells.size
-        cell_counts = counts[cells]
-        for k in range(m * n):
-            mean_tau = np.bincount(cell, flat_tau[k, members], c) / cell_counts
-            z = flat_a[k, members] * np.exp(-2j * np.pi * frequency * (flat_tau[k, members] - mean_tau[cell]))
-            out_a[k, cells] = np.bincount(cell, z.real, c) + 1j * np.bincount(cell, z.imag, c)
-            out_tau[k, cells] = mean_tau
-            out_dop[k, cells] = np.bincount(cell, flat_dop[k, members], c) / cell_counts
-    out_labels = names[lab[first]]
-    out = (out_a.reshape(m, n, g), out_tau.reshape(m, n, g), out_dop.reshape(m, n, g), out_labels)
-    return (*out, group) if return_cells else out
-
-
-def label_codes(labels) -> tuple[np.ndarray, np.ndarray]:
-    """``np.unique(labels, return_inverse=True)`` for ``[P]`` string labels, read run by run (the
-    labels of a render come in runs of one object, so only the runs' labels are sorted)."""
-    labels = np.asarray(labels).astype(str, copy=False).reshape(-1)
-    if labels.size == 0:
-        return np.zeros(0, dtype=labels.dtype), np.zeros(0, dtype=np.int64)
-    start = np.flatnonzero(np.concatenate([[True], labels[1:] != labels[:-1]]))
-    names, run_code = np.unique(labels[start], return_inverse=True)
-    return names, np.repeat(run_code.reshape(-1), np.diff(np.append(start, labels.size)))
-
-
-def take_out_of_cells(a, tau, cell, cell_tau, cell_doppler, cell_labels, frequency: float):
-    r"""Contributions that remove ``a, tau`` ``[M, N, K]`` (merged earlier into cells ``cell [K]``) from
-    their cells: one contribution per cell touched, at the cell's delay :math:`\bar\tau` and Doppler,
-
-    .. math:: -\sum_{i \in \text{cell}} a_i\,e^{-j2\pi f_c(\tau_i - \bar\tau)},
-
-    so that the merged cell plus it is exactly the merge of the contributions left in it, at the same
-    :math:`\bar\tau` (the merge error bound of :func:`merge_contributions` holds for any
-    :math:`\bar\tau` inside the cell). ``cell_tau``, ``cell_doppler`` ``[M, N, G]`` and
-    ``cell_labels [G]`` are the merged output. Returns ``(a, tau, doppler, labels)``.
-    """
-    m, n, k = a.shape
-    cells, inverse = np.unique(cell, return_inverse=True)
-    g = cells.size
-    z = -a * np.exp(-2j * np.pi * frequency * (tau - cell_tau[:, :, cell]))
-    flat = z.reshape(m * n, k)
-    out = np.empty((m * n, g), complex)
-    for j in range(m * n):
-        out[j] = np.bincount(inverse, flat[j].real, g) + 1j * np.bincount(inverse, flat[j].imag, g)
-    return out.reshape(m, n, g), cell_tau[:, :, cells], cell_doppler[:, :, cells], np.asarray(cell_labels)[cells]
-
-
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject",
-           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "label_codes",
-           "merge_contributions", "object_box", "radio_material", "reflect", "render",
-           "scene_objects", "shading_normals", "take_out_of_cells"]
+           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "flat_shaded", "object_box",
+           "radio_material", "reflect", "render", "scene_objects", "shading_normals"]

@@ -41,9 +41,9 @@ bounce is rendered per frame on the moving object and the cached one is removed 
 on the reflected ray, to its cached next hit or to infinity).
 
 The PO echoes of the static block are merged into cells as without the cache
-(:func:`~sionnafmcw.engines.po_render.merge_contributions`); a blocked sample is taken out of its
-cell at the cell's delay (:func:`~sionnafmcw.engines.po_render.take_out_of_cells`), which is the
-merge of the samples left in the cell, within the same error bound. So the frame's echoes equal
+(:func:`~sionnafmcw.engines.po_merge.merge_contributions`); a blocked sample is taken out of its
+cell at the cell's delay (:func:`~sionnafmcw.engines.po_merge.take_out_of_cells`), which is the
+merge of the samples left in the cell. So the frame's echoes equal
 those of the uncached engine up to the merge error (test: ``tests/test_static_scene.py``) and
 depend on the frame only (the cache depends on the pose and the static geometry, not on the frames
 before).
@@ -222,8 +222,8 @@ class StaticPO:
         """Render the static surfaces of ``world`` (``objects``: its :func:`~.po_render.scene_objects`)
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
-        ``merge(a, tau, doppler, labels)`` the merged ``(a, tau, doppler, labels, cell)`` or None (no
-        merging)."""
+        ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
+        (no merging)."""
         from ..echoes import Echoes
         from .po_render import reflect, render
 
@@ -254,15 +254,15 @@ class StaticPO:
             if not np.any(kept):
                 cells.append(None)
                 continue
-            a, tau, doppler, labels = contributions(b.select(kept))
-            merged = merge(a, tau, doppler, labels)
+            chosen = b.select(kept)
+            a, tau, doppler, labels = contributions(chosen)
+            merged = merge(chosen, (a, tau, doppler, labels))
             if merged is None:
                 cells.append(None)
                 parts.append(Echoes(a, tau, doppler, labels))
             else:
-                a_m, tau_m, dop_m, lab_m, cell = merged
-                cells.append((cell, tau_m, dop_m, lab_m))
-                parts.append(Echoes(a_m, tau_m, dop_m, lab_m))
+                cells.append((merged.cell, merged.tau, merged.doppler, merged.labels))
+                parts.append(Echoes(merged.a, merged.tau, merged.doppler, merged.labels))
         echoes = None if not parts else (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
         return cls(renders, keep, incident, outgoing, cells, echoes)
 
@@ -281,7 +281,8 @@ class StaticPO:
         how many static samples were taken out.
         """
         from ..echoes import Echoes
-        from .po_render import reflect, render, take_out_of_cells
+        from .po_merge import take_out_of_cells
+        from .po_render import reflect, render
 
         moving = world.moving()
         spheres = Spheres(*world.bounding_spheres(moving))

@@ -71,6 +71,11 @@ class Surface:
     scene: object = None
     shape_key: int = -1      # the Mitsuba shape of this surface in its scene (reinterpreted pointer)
     slot: np.ndarray | None = None   # rigid surfaces: where the atlas puts the sphere's centre
+    first_vertices: np.ndarray | None = None   # the vertices it was built with (a deforming surface's frame 0)
+
+    def __post_init__(self):
+        if self.first_vertices is None:
+            self.first_vertices = self.vertices
 
     @classmethod
     def build(cls, name: str, kind: str, vertices, faces, vertex_normals=None, crease_angle=None) -> Surface:

@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .accuracy import NOISE_MARGIN_DB, SynthesisAccuracy, noise_error_budget
+from .accuracy import NOISE_MARGIN_DB, UPSTREAM_SHARE, SynthesisAccuracy, noise_error_budget
 from .direct import beat_direct
 from .noise import thermal_noise
 from .nufft import beat_nufft, synthesis_accuracy
@@ -72,8 +72,9 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
         (:meth:`Echoes.leakage`); None (default) models none. It is appended after the echoes,
         so it is part of the per-frame sum, never of the static block.
     noise_margin_db : float
-        With noise on, the fast sum's worst-case error per sample stays this far below the thermal
-        noise :math:`\sqrt{k T_0 F F_s}` (:func:`~sionnafmcw.synthesis.accuracy.noise_error_budget`).
+        With noise on, the fast sum's worst-case error per sample plus what the engines' PO merge may
+        err (:data:`~sionnafmcw.synthesis.accuracy.UPSTREAM_SHARE` of it) stays this far below the
+        thermal noise :math:`\sqrt{k T_0 F F_s}` (:func:`~sionnafmcw.synthesis.accuracy.noise_error_budget`).
     max_error : float, optional
         Explicit error budget per sample (sqrt(W)) for ``method="nufft"``, overriding the noise
         margin; with noise off and no ``max_error`` the tight default tolerances are used.
@@ -115,7 +116,7 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
         raise ValueError(f"synthesize: frame_time must be finite, got {frame_time!r}")
     if method == "nufft":
         if max_error is None and noise:
-            max_error = noise_error_budget(radar, noise_margin_db)
+            max_error = (1.0 - UPSTREAM_SHARE) * noise_error_budget(radar, noise_margin_db)
         if static_cache is not None and echoes.static_key is not None and echoes.static_count > 0:
             cube = _static_and_dynamic(echoes, radar, max_error, static_cache)
         else:
@@ -162,5 +163,5 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
     return static + dynamic
 
 
-__all__ = ["METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "SynthesisAccuracy", "beat_direct", "beat_nufft",
-           "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]
+__all__ = ["METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "UPSTREAM_SHARE", "SynthesisAccuracy", "beat_direct",
+           "beat_nufft", "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]

@@ -92,6 +92,10 @@ TAYLOR_TOL = 1e-8
 MAX_ORDER = 6
 #: Default margin of the synthesis error below the thermal noise per sample (dB).
 NOISE_MARGIN_DB = 20.0
+#: Share of the noise budget kept for what the engines approximate before synthesis: the PO merge
+#: (:mod:`sionnafmcw.engines.po_merge`); the synthesis itself gets the rest, so the two errors add
+#: up to at most the budget.
+UPSTREAM_SHARE = 0.1
 #: Share of the error budget given to the Taylor truncation; the NUFFT gets the rest.
 TAYLOR_SHARE = 0.1
 #: Smallest finufft tolerance for which the single-precision (complex64) library is used.
@@ -107,7 +111,8 @@ MAX_NUFFT_TOL = 1e-3
 
 
 def noise_error_budget(radar, margin_db: float = NOISE_MARGIN_DB) -> float:
-    """Largest synthesis error per sample, :math:`\\sqrt{k T_0 F F_s}\\,10^{-D/20}` (sqrt(W))."""
+    """Largest error per sample of the whole echo model, :math:`\\sqrt{k T_0 F F_s}\\,10^{-D/20}`
+    (sqrt(W)): the synthesis gets ``1 -`` :data:`UPSTREAM_SHARE` of it, the PO merge the rest."""
     return float(np.sqrt(radar.noise_power) * 10 ** (-margin_db / 20))
 
 
