@@ -153,7 +153,7 @@ def test_unverified_version_is_a_clear_error():
 
 
 def test_min_segment_length_is_the_radar_one_and_fails_loudly_when_gone(monkeypatch):
-    from sionnafmcw.engines.path import RADAR_MIN_SEGMENT_LENGTH
+    from sionnafmcw.engines.traced_paths import RADAR_MIN_SEGMENT_LENGTH
 
     assert set(sionna_rt.min_segment_length().values()) == {RADAR_MIN_SEGMENT_LENGTH}
     # a Sionna release without the constant in one solver module (simulated by removing it here)

@@ -15,7 +15,7 @@ from sionnafmcw import RadarConfig, processing
 from sionnafmcw.animation import load_animation
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.engines import PathEngine, PathEngineError
-from sionnafmcw.engines.path import TracedPaths, specular_duplicates
+from sionnafmcw.engines.traced_paths import TracedPaths, specular_duplicates
 from sionnafmcw.geometry import radar_to_world, rotation_matrix
 from sionnafmcw.sionna_rt import InteractionType
 from sionnafmcw.synthesis import synthesize

@@ -18,7 +18,7 @@ from sionnafmcw import RadarConfig, processing
 from sionnafmcw.animation import load_animation
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.engines import PathEngine, PathEngineError
-from sionnafmcw.engines.path import specular_chains
+from sionnafmcw.engines.traced_paths import specular_chains
 from sionnafmcw.engines.po_render import curvature_radius, shading_normals
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.scenes import meshes

@@ -36,7 +36,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..animation import Animation, RadarPose
-from .errors import EngineError, SceneGeometryError, SceneLoadError
+from .errors import EngineError
 
 
 @dataclass

@@ -20,11 +20,9 @@ The echo of a frame has three parts (issue 11; each can be switched off for comp
   to :math:`4\pi a^4/(3\lambda^2)` in the far field and to the geometric-optics value close in
   (derivation in :mod:`~sionnafmcw.engines.po_render`); Sionna's purely specular chains are then
   dropped too. ``multibounce="sionna"`` keeps Sionna's specular chains of two or more
-  interactions (image method, geometric optics). The PO contributions are merged per element
-  pair into cells of 1/256 of the range and velocity resolution (``po_merge``,
-  :data:`~sionnafmcw.engines.po_render.MERGE_FRACTION`,
-  :func:`~sionnafmcw.engines.po_render.merge_contributions`: the channel at the carrier is kept
-  exactly);
+  interactions (image method, geometric optics). The PO contributions the radar cannot tell
+  apart are merged per element pair (``po_merge``, :mod:`~sionnafmcw.engines.po_merge`: the channel
+  at the carrier is kept exactly and the error stays within the merge's share of the noise budget);
 * **Sionna's paths with a diffuse interaction** (and, with ``multibounce="sionna"``, its specular
   chains of two or more bounces), traced once for the whole array (below);
 * **a random phase per diffuse scatterer** (``random_phase=True``): every path with a diffuse
@@ -35,114 +33,17 @@ The echo of a frame has three parts (issue 11; each can be switched off for comp
   over chirps and frames, while neighbouring scatterers add in power -- the map power of a rough
   surface no longer grows with the ray count (6 dB per 4x rays before).
 
-One :class:`~sionna.rt.Transmitter` and one :class:`~sionna.rt.Receiver` sit at the radar pose
-(pattern ``radar.antenna_pattern``, vertical polarisation). How the radar's elements see the
-traced paths is the option ``array_model``:
+One :class:`~sionna.rt.Transmitter` and one :class:`~sionna.rt.Receiver` sit at the radar pose; with
+``array_model="coherent"`` (default) Sionna traces once for the whole array and every element pair
+gets the traced path with its own first and last segment (:mod:`~sionnafmcw.engines.element_pairs`,
+which derives delay, gain and Doppler per pair and why the fixed interaction points are right);
+``"per-element"`` traces every element for comparisons. Sionna's solver runs up to its path buffer
+and the valid paths come out as numpy (:mod:`~sionnafmcw.engines.traced_paths`, which also removes
+the specular copies Sionna returns twice).
 
-* ``"coherent"`` (default): Sionna traces **once for the whole array**, from one source at the
-  centre of the Tx elements :math:`\mathbf t_0` to one target at the centre of the Rx elements
-  :math:`\mathbf r_0` (not both at the common phase centre: exactly co-located Tx and Rx make the
-  retro-reflected paths degenerate, see :data:`RADAR_MIN_SEGMENT_LENGTH`). Every traced path
-  :math:`\mathbf t_0 \to \mathbf v_1 \to \dots \to \mathbf v_d \to \mathbf r_0` keeps its
-  interaction points, and every element pair :math:`(m, n)` gets it with its own first and last
-  segment (below). The whole array sees one set of scatterers, as a real surface is one set of
-  scatterers for a few-centimetre array, and the phase between the Tx blocks of a diffuse echo
-  follows the array geometry (what MIMO angle processing relies on). It traces :math:`M` times
-  fewer rays than ``"per-element"`` and leaves :math:`MN` times fewer paths to adapt.
-* ``"per-element"``: Sionna's ``synthetic_array=False``: every Tx element is a source and every
-  Rx element a target. Each Tx element then draws its **own** diffuse scatterers (two elements
-  share 0-2.5 % of their body hits, measured in issue 11) and the Tx-block phases of diffuse
-  echoes are scrambled: three speckle looks no radar gets. Kept only to compare with the coherent
-  model (``benchmarks/path_engine.py``).
-
-The coherent model, per element pair
-------------------------------------
-With :math:`\mathbf t_m`, :math:`\mathbf r_n` the element positions (world), the interaction
-points :math:`\mathbf v_1 \dots \mathbf v_d` of a traced path and
-:math:`\ell = \sum_{i=1}^{d-1}\|\mathbf v_{i+1} - \mathbf v_i\|` its inner length:
-
-* **delay** (near-field exact, no plane-wave approximation across the array)
-
-  .. math:: \tau_{mn} = \big(\|\mathbf v_1 - \mathbf t_m\| + \ell + \|\mathbf r_n - \mathbf v_d\|\big)/c ;
-
-* **gain**: Sionna's :math:`a` of the traced path, rescaled for the changed first and last
-  segments as Sionna's field calculator would spread them. Sionna applies one spreading factor
-  :math:`1/s` at the end of the path, where :math:`s` is the *ray-tube length*: the whole path
-  length for a chain of specular reflections (and refractions), but only the length after the
-  last diffuse interaction for a path with one, since a diffuse reflection re-radiates a new
-  ray tube with a Jones matrix :math:`\sqrt{f_s\,\Omega}\,\Gamma` that does not depend on the
-  length before it (the incident tube's solid angle :math:`\Omega` carries the power that the
-  tube cuts out of the surface, an area :math:`\Omega\,s_{pre}^2/\cos\theta_i`). Hence
-
-  .. math::
-      a_{mn} = a\,\frac{L_0}{L_{mn}}\,\rho_m\rho_n \quad\text{(specular chain)},\qquad
-      a_{mn} = a\,\frac{s^{pre}_0}{s^{pre}_m}\,\frac{s^{post}_0}{s^{post}_n}\,\rho_m\rho_n
-      \quad\text{(with a diffuse interaction)},
-
-  with :math:`L` the path length, :math:`s^{post}` the length from the last diffuse point to
-  the receiver (Sionna's ray-tube length) and :math:`s^{pre}` the length from the transmitter to
-  the first diffuse point. The factor :math:`s^{pre}_0/s^{pre}_m` is the fixed-scatterer
-  correction: the centre trace fixed the scatterer's area, and element :math:`m`'s incident field
-  on it falls as :math:`1/s^{pre}_m` (Sionna, tracing per element, never needs it because each
-  element's rays cut their own areas). :math:`\rho_m = \sqrt{G(\hat{\mathbf k}_m)/G(\hat{\mathbf k}_0)}`
-  evaluates the element pattern (:func:`sionnafmcw.antenna.antenna_gain`, the same pattern Sionna
-  uses) in element :math:`m`'s own departure direction instead of the centre's (likewise
-  :math:`\rho_n` for arrival); 1 for ``"iso"``. The material's angle dependence (Fresnel
-  :math:`\Gamma(\theta_i)`, Lambertian :math:`\cos\theta_s`, :math:`\cos\theta_i` of the cut
-  area) is kept at the centre's angles: relative errors of order :math:`\delta/R\,\tan\theta`,
-  below 1 % (0.1 dB) at 1 m for these arrays;
-* **Doppler** :math:`f_{mn} = -\frac{1}{\lambda}\frac{d}{dt}L_{mn}` with the interaction points'
-  velocities (Sionna's per-object velocity, or the per-vertex field below): the traced path's
-  Doppler :math:`f_0 = \sum_i \mathbf u_i\cdot(\hat{\mathbf k}_{out,i} - \hat{\mathbf k}_{in,i})/\lambda`
-  plus the change of the first incident and the last outgoing direction,
-
-  .. math:: f_{mn} = f_0 + \big[\mathbf u_1\cdot(\hat{\mathbf k}^{0}_{in,1} - \hat{\mathbf k}^{m}_{in,1})
-            + \mathbf u_d\cdot(\hat{\mathbf k}^{n}_{out,d} - \hat{\mathbf k}^{0}_{out,d})\big]/\lambda
-
-  (:math:`\mathbf u_i` the velocity of the point :math:`\mathbf v_i`, :math:`\lambda = c/f_c`),
-  Sionna's sign: positive approaching.
-
-Why fixed interaction points are right
---------------------------------------
-*Diffuse* paths: the scatterer is a point of the surface; the path from any element to it and on
-to any element is exactly the segments above, so the delay and Doppler are exact and the array
-sees one scatterer. *Specular* paths: the true reflection point of the pair :math:`(m, n)` is not
-the centre's. By Fermat's principle the path length is stationary with respect to the reflection
-point, so holding it fixed errs only to second order. For a flat facet (every Sionna reflection
-is on a triangle) at range :math:`R`, element offsets :math:`\boldsymbol\delta_t, \boldsymbol\delta_r`
-from the Tx and Rx centres (across the line of sight) move the reflection point by about
-:math:`(\boldsymbol\delta_t + \boldsymbol\delta_r)/(2\cos\theta)` along the plane, where the
-length's curvature is :math:`2\cos^2\theta/R`: the fixed point adds
-
-.. math:: \Delta L \approx \frac{|\boldsymbol\delta_t + \boldsymbol\delta_r|^2}{4R}
-
-whatever the incidence :math:`\theta`. The largest preset aperture is ``walk-77ghz``
-(:math:`|\delta_t| \le 7.8` mm, :math:`|\delta_r| \le 2.9` mm): :math:`\Delta L \le 29\ \mu` m
-at 1 m (:math:`\lambda/135`, 0.05 rad of round-trip phase, :math:`10^{-13}` s) and 2.9 µm at
-10 m (0.005 rad); ``ti-awr1843boost`` 12 µm at 1 m. Multi-bounce specular chains obey the same
-stationarity. The Doppler of the fixed point differs from the true one by about
-:math:`|\mathbf u|\,|\boldsymbol\delta|/(R\lambda)`: 2.8 Hz for 1 m/s, 1.1 cm, 1 m (under a tenth of
-a ``walk-77ghz`` Doppler bin, 37 Hz), 0.3 Hz at 10 m.
-
-Coincident specular paths
--------------------------
-Sionna keeps one copy of a specular chain per plane, hashing the planes by their normals
-quantised to :math:`10^{-5}`; coplanar sub-triangles that are not axis-aligned have float32
-normals that miss one another, and return the same path 2-5 times (measured: a plate turned
-0.35 rad split into 8+ triangles, the default trihedral ``subdiv=2`` at 5-7 m), adding +3 to
-+14 dB coherently. The engine keeps one of every group of specular chains (no diffuse
-interaction) with the same source and target, the same objects and interaction types in the same
-order, path lengths within :data:`DUPLICATE_LENGTH_TOLERANCE` wavelengths (:math:`\lambda/100`)
-and every interaction point within :data:`DUPLICATE_POINT_TOLERANCE` wavelengths
-(:math:`\lambda/2`) of the other's (:func:`specular_duplicates`). Measured: the copies' facet
-normals disagree by about :math:`10^{-5}` (float32 vertices 5 m out, 6 cm triangles), which moves
-the image-method reflection point by some 50 µm but, the length being stationary in the point
-(Fermat), the path length by only 1 µm; the length tolerance is 40 times that, and the float32
-delay itself is good to :math:`10^{-7}` of the length (3 µm at 30 m). Two genuinely different
-specular points of one object sequence with the same length to :math:`\lambda/100` and less
-than :math:`\lambda/2` apart are not separate scattering centres to the radar (one glint); a
-faceted curve's neighbouring facets have their mirror points a facet width (centimetres) apart.
-Diffuse paths are never merged (distinct rays, distinct surface samples).
+Which surfaces each part sees: Sionna traces the objects' meshes as stored (a rigid object is
+written into its scene per frame); the PO render renders every object's smooth surface, built once
+in its own frame (:mod:`~sionnafmcw.engines.surfaces`).
 
 Conventions and choices
 -----------------------
@@ -221,39 +122,19 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..animation import Animation, RadarPose
-from ..antenna import antenna_gain, direction_angles
 from ..constants import SPEED_OF_LIGHT
 from ..echoes import Echoes
 from ..geometry import rotation_matrix
-from ..sionna_rt import (
-    INVALID_SHAPE, AntennaArray, InteractionType, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi,
-    set_min_segment_length, solve_fields, trace_candidates,
-)
+from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi
 from .base import Engine
+from .element_pairs import (
+    coherent_echoes, diffuse_phases, interaction_velocities, path_labels, per_element_echoes, vertex_doppler,
+)
 from .errors import PathEngineError
-from .loaded_scene import barycentric_weights, interpolate
+from .traced_paths import TracedPaths, specular_chains, specular_duplicates, trace_paths
 from .po_render import radio_material
 from .surfaces import SurfaceWorld
 
-#: Minimum path segment length (m) for a radar. Sionna's 1 cm (``MIN_SEGMENT_LENGTH``, meant for
-#: communication links) drops every retro-reflected path of a radar: a trihedral's or dihedral's
-#: image-method path between Tx and Rx elements a distance d apart passes within ~d/2 of the
-#: corner, so its segments between bounces are millimetres long (measured: the triple bounce of a
-#: 0.3 m trihedral at 4 m vanishes for Tx-Rx offsets below ~1 cm and is found at 2 mm with
-#: 0.1 mm). Set when this module is imported, before any path is solved; it applies to every
-#: solver in the process (:func:`sionnafmcw.sionna_rt.set_min_segment_length`, which fails loudly
-#: when Sionna no longer has the constant).
-RADAR_MIN_SEGMENT_LENGTH = 1e-4
-set_min_segment_length(RADAR_MIN_SEGMENT_LENGTH)
-
-#: Two specular chains are one path when their lengths (c times the delay) agree within this many
-#: wavelengths (1/100: 39 µm at 77 GHz; copies differ by about 1 µm, see the module docstring) ...
-DUPLICATE_LENGTH_TOLERANCE = 0.01
-#: ... and every interaction point agrees within this many wavelengths (1/2: 1.9 mm at 77 GHz;
-#: copies' reflection points differ by about 50 µm at 5 m, growing with range).
-DUPLICATE_POINT_TOLERANCE = 0.5
-
-_SPECULAR_TYPES = (int(InteractionType.SPECULAR), int(InteractionType.REFRACTION))
 _STATIC_BLOCKS = itertools.count()   # numbers the static echo blocks built in this process (their static_key)
 
 
@@ -283,120 +164,6 @@ class _StaticBlock:
     po: object
     block: Echoes
     seconds: float
-
-
-@dataclass
-class TracedPaths:
-    """The valid paths of one trace, as numpy arrays (world frame, float64).
-
-    ``a`` ``[P]`` complex gain, ``tau`` ``[P]`` (s), ``doppler`` ``[P]`` (Hz, Sionna's per-object
-    velocities), ``source``/``target`` ``[P]`` the source/target index, ``types``/``shapes``/
-    ``primitives`` ``[P, D]`` per interaction (``InteractionType.NONE`` / ``INVALID_SHAPE`` after
-    the last), ``vertices`` ``[P, D, 3]``, ``num_interactions`` ``[P]``; ``sources``/``targets``
-    the positions Sionna used ``[S, 3]`` / ``[T, 3]``.
-    """
-
-    a: np.ndarray
-    tau: np.ndarray
-    doppler: np.ndarray
-    source: np.ndarray
-    target: np.ndarray
-    types: np.ndarray
-    shapes: np.ndarray
-    primitives: np.ndarray
-    vertices: np.ndarray
-    sources: np.ndarray
-    targets: np.ndarray
-
-    @property
-    def num_paths(self) -> int:
-        return len(self.a)
-
-    @property
-    def valid_interactions(self) -> np.ndarray:
-        return (self.types != int(InteractionType.NONE)) & (self.shapes != int(INVALID_SHAPE))
-
-    @property
-    def num_interactions(self) -> np.ndarray:
-        return self.valid_interactions.sum(axis=1)
-
-    @staticmethod
-    def concatenate(parts: list[TracedPaths]) -> TracedPaths:
-        """The paths of ``parts`` (same sources, targets and depth) one after the other."""
-        def cat(name):
-            return np.concatenate([getattr(p, name) for p in parts])
-
-        return TracedPaths(cat("a"), cat("tau"), cat("doppler"), cat("source"), cat("target"), cat("types"),
-                           cat("shapes"), cat("primitives"), cat("vertices"), parts[0].sources, parts[0].targets)
-
-    def segments(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The segments source -> v_1 -> ... -> v_d -> target: starts and ends ``[P, D+1, 3]`` (after the
-        last interaction both at the target: zero length) and ``[P, D+1]`` bool, true for the
-        ``d + 1`` segments of each path."""
-        num, depth, _ = self.vertices.shape
-        n_int = self.num_interactions
-        pts = np.empty((num, depth + 2, 3))
-        pts[:, 0] = self.sources[self.source]
-        pts[:, 1:depth + 1] = self.vertices
-        tgt = self.targets[self.target]
-        for d in range(depth):
-            pad = n_int <= d
-            pts[pad, d + 1] = tgt[pad]
-        pts[:, depth + 1] = tgt
-        used = np.arange(depth + 1)[None, :] <= n_int[:, None]
-        return pts[:, :-1], pts[:, 1:], used
-
-    def select(self, keep) -> TracedPaths:
-        """The paths where ``keep`` ([P] bool) is true."""
-        return TracedPaths(self.a[keep], self.tau[keep], self.doppler[keep], self.source[keep], self.target[keep],
-                           self.types[keep], self.shapes[keep], self.primitives[keep], self.vertices[keep],
-                           self.sources, self.targets)
-
-
-def specular_duplicates(paths: TracedPaths, wavelength: float, length_tolerance: float = DUPLICATE_LENGTH_TOLERANCE,
-                        point_tolerance: float = DUPLICATE_POINT_TOLERANCE) -> np.ndarray:
-    """Mask ``[P]`` of the specular paths that repeat another one (see "Coincident specular paths").
-
-    Two paths are copies when both are specular chains (every interaction a specular reflection
-    or a refraction) between the same source and target, with the same objects and interaction
-    types in the same order, path lengths :math:`c\tau` within ``length_tolerance * wavelength``
-    and every interaction point within ``point_tolerance * wavelength`` of the other's. Of every
-    group the path with the shortest delay is kept (not marked).
-    """
-    valid = paths.valid_interactions
-    chain = np.all(~valid | np.isin(paths.types, _SPECULAR_TYPES), axis=1) & valid.any(axis=1)
-    duplicate = np.zeros(paths.num_paths, dtype=bool)
-    idx = np.flatnonzero(chain)
-    if len(idx) < 2:
-        return duplicate
-    length_tol, point_tol = length_tolerance * wavelength, point_tolerance * wavelength
-    order = idx[np.argsort(paths.tau[idx], kind="stable")]
-    length = paths.tau[order] * SPEED_OF_LIGHT
-    for i, p in enumerate(order):
-        if duplicate[p]:
-            continue
-        j = i + 1
-        while j < len(order) and length[j] - length[i] <= length_tol:
-            q = order[j]
-            if (not duplicate[q] and paths.source[q] == paths.source[p] and paths.target[q] == paths.target[p]
-                    and np.array_equal(paths.types[q], paths.types[p])
-                    and np.array_equal(paths.shapes[q], paths.shapes[p])
-                    and np.all(np.linalg.norm((paths.vertices[q] - paths.vertices[p])[valid[p]], axis=-1)
-                               <= point_tol)):
-                duplicate[q] = True
-            j += 1
-    return duplicate
-
-
-def specular_chains(paths: TracedPaths, max_interactions: int | None = None) -> np.ndarray:
-    """Mask ``[P]`` of the purely specular chains (every interaction a specular reflection or a
-    refraction) with at most ``max_interactions`` interactions (None: any number): the paths that
-    physical optics replaces (module docstring, "Physical optics")."""
-    valid = paths.valid_interactions
-    chain = np.all(~valid | np.isin(paths.types, _SPECULAR_TYPES), axis=1) & valid.any(axis=1)
-    if max_interactions is not None:
-        chain &= paths.num_interactions <= max_interactions
-    return chain
 
 
 def _pose_key(pose: RadarPose) -> tuple:
@@ -661,7 +428,10 @@ class PathEngine(Engine):
     # ------------------------------------------------------------------ Sionna's paths
     def _traced_paths(self, wavelength: float):
         """The frame's trace without the specular chains PO replaces and without specular copies, and its figures."""
-        paths = self._trace(self._loaded.scene)
+        paths = trace_paths(self._solver, self._loaded.scene, samples_per_src=self.samples_per_src,
+                            max_num_paths_per_src=self.max_num_paths_per_src, max_depth=self.max_depth,
+                            specular=self.specular, diffuse=self.diffuse, refraction=self.refraction,
+                            diffraction=self.diffraction, seed=self.seed)
         num_duplicates = num_replaced = 0
         if self.physical_optics and paths.num_paths:
             # PO replaces Sionna's specular chains: the first-order mirror paths always, the longer
@@ -682,14 +452,15 @@ class PathEngine(Engine):
         """Per element pair echoes of traced paths (None when there are none); ``paths`` is not changed."""
         if not paths.num_paths:
             return None
-        vertex_velocity, velocity = self._interaction_velocities(paths, velocities)
-        doppler = paths.doppler + self._vertex_doppler(paths, vertex_velocity, wavelength)
-        labels = self._labels(paths, velocities)
+        loaded, names_by_id = self._loaded, self._state.names_by_id
+        vertex_velocity, velocity = interaction_velocities(paths, loaded, velocities, self.vertex_doppler)
+        doppler = paths.doppler + vertex_doppler(paths, vertex_velocity, wavelength)
+        labels = path_labels(paths, loaded, names_by_id, velocities, self.label, self.vertex_doppler)
         if self.random_phase:
-            paths = replace(paths, a=paths.a * np.exp(1j * self._diffuse_phases(paths, wavelength)))
+            paths = replace(paths, a=paths.a * np.exp(1j * diffuse_phases(paths, loaded, names_by_id, wavelength)))
         if self.coherent:
-            return self._coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength)
-        return self._per_element_echoes(paths, doppler, labels, radar)
+            return coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength)
+        return per_element_echoes(paths, doppler, labels, radar)
 
     def _blocked_paths(self, paths: TracedPaths, spheres, moving_ids) -> np.ndarray:
         """``[P]`` bool: the static paths with a segment that a moving object blocks in this frame."""
@@ -828,36 +599,6 @@ class PathEngine(Engine):
         po = None if not echoes else (echoes[0] if len(echoes) == 1 else Echoes.concatenate(echoes))
         return po, removed, figures
 
-    def _diffuse_phases(self, paths: TracedPaths, wavelength: float) -> np.ndarray:
-        r"""Random phase ``[P]`` of every path: the sum over its diffuse interactions of
-        :func:`sionnafmcw.diffuse.scatterer_phases` of (object, triangle, barycentric cell of
-        :math:`\lambda/4`), so a diffuse scatterer keeps its phase while it is on the same surface
-        cell (module docstring, "Diffuse scattering"); 0 for specular chains."""
-        from ..diffuse import cells_per_edge, scatterer_phases
-
-        phase = np.zeros(paths.num_paths)
-        diffuse = paths.valid_interactions & (paths.types == int(InteractionType.DIFFUSE))
-        if not np.any(diffuse):
-            return phase
-        loaded, names_by_id = self._loaded, self._state.names_by_id
-        rows, cols = np.nonzero(diffuse)
-        for shape_id in np.unique(paths.shapes[rows, cols]):
-            name = names_by_id.get(int(shape_id))
-            if name is None:
-                continue
-            on = paths.shapes[rows, cols] == shape_id
-            r, c = rows[on], cols[on]
-            faces = loaded.faces[name][paths.primitives[r, c]]
-            vpos = loaded.vertices[name]
-            a, b, cc = vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]]
-            w = barycentric_weights(paths.vertices[r, c], a, b, cc)
-            edge = np.max(np.stack([np.linalg.norm(b - a, axis=-1), np.linalg.norm(cc - b, axis=-1),
-                                    np.linalg.norm(a - cc, axis=-1)]), axis=0)
-            phi = scatterer_phases(np.full(r.size, name), paths.primitives[r, c], w[:, 1:],
-                                   cells_per_edge(edge, wavelength / 4))
-            np.add.at(phase, r, phi)
-        return np.mod(phase, 2 * np.pi)
-
     # ------------------------------------------------------------------ per frame
     def _update_velocities(self, animation: Animation, frame: int) -> dict:
         """Set Sionna's object velocities; returns the velocity used per object (m/s)."""
@@ -889,217 +630,5 @@ class PathEngine(Engine):
             dev.orientation = orientation
         state.pose = key
 
-    def _trace(self, scene) -> TracedPaths:
-        """The solver's steps up to the path buffer (no ``Paths`` tensors, see the module docstring), as numpy."""
-        candidates = trace_candidates(
-            self._solver, scene, samples_per_src=self.samples_per_src,
-            max_num_paths_per_src=self.max_num_paths_per_src, max_depth=self.max_depth,
-            specular_reflection=self.specular, diffuse_reflection=self.diffuse, refraction=self.refraction,
-            diffraction=self.diffraction, seed=self.seed)
-        found, capacity = candidates.found, candidates.capacity
-        if found >= capacity:
-            # Sionna keeps counting past the end of its candidate buffer and silently drops the
-            # rest (measured: a closed room, diffuse only, 1e6 rays per source: 250k paths kept of
-            # ~12M, 17 dB of power lost and the body gone), so a full buffer is an error here.
-            raise PathEngineError(
-                f"PathEngine: {found} candidate paths filled Sionna's path buffer ({capacity} = "
-                f"max_num_paths_per_src={self.max_num_paths_per_src} x {capacity // self.max_num_paths_per_src} "
-                f"sources) and the rest would be dropped silently; raise max_num_paths_per_src "
-                f"(e.g. to {4 * self.max_num_paths_per_src}) or lower samples_per_src={self.samples_per_src}")
-        buf = solve_fields(self._solver, scene, candidates, samples_per_src=self.samples_per_src,
-                           diffraction=self.diffraction)
-        return self._buffer_arrays(buf, candidates.src_positions, candidates.tgt_positions)
 
-    @staticmethod
-    def _buffer_arrays(buf, src_positions, tgt_positions) -> TracedPaths:
-        """Sionna's ``PathsBuffer`` (valid paths only) as :class:`TracedPaths`."""
-        num = int(buf.buffer_size)
-        depth = buf.depth_dim_size
-        sources = np.stack([src_positions.x.numpy(), src_positions.y.numpy(), src_positions.z.numpy()], -1)
-        targets = np.stack([tgt_positions.x.numpy(), tgt_positions.y.numpy(), tgt_positions.z.numpy()], -1)
-        if num == 0:
-            z = np.zeros(0)
-            zi = np.zeros((0, depth), dtype=np.int64)
-            return TracedPaths(z.astype(complex), z, z, z.astype(np.int64), z.astype(np.int64), zi, zi, zi,
-                               np.zeros((0, depth, 3)), sources.astype(float), targets.astype(float))
-        a = buf.a[0][0]
-        arrays = [buf.source_indices, buf.target_indices, dr.real(a), dr.imag(a), buf.tau, buf.doppler,
-                  buf.shapes, buf.interaction_types, buf.primitives, buf.vertices_x, buf.vertices_y,
-                  buf.vertices_z]
-        dr.eval(*arrays)
-
-        def per_interaction(x, dtype):
-            return np.asarray(x.array.numpy(), dtype=dtype).reshape(num, depth)
-
-        return TracedPaths(
-            a=dr.real(a).numpy().astype(np.float64) + 1j * dr.imag(a).numpy().astype(np.float64),
-            tau=buf.tau.numpy().astype(np.float64),
-            doppler=buf.doppler.numpy().astype(np.float64),
-            source=buf.source_indices.numpy().astype(np.int64),
-            target=buf.target_indices.numpy().astype(np.int64),
-            types=per_interaction(buf.interaction_types, np.int64),
-            shapes=per_interaction(buf.shapes, np.int64),
-            primitives=per_interaction(buf.primitives, np.int64),
-            vertices=np.stack([per_interaction(buf.vertices_x, np.float64), per_interaction(buf.vertices_y, np.float64),
-                               per_interaction(buf.vertices_z, np.float64)], axis=-1),
-            sources=sources.astype(np.float64), targets=targets.astype(np.float64))
-
-    # ------------------------------------------------------------------ paths -> Echoes
-    def _interaction_velocities(self, paths: TracedPaths, velocities: dict):
-        """Velocities ``[P, D, 3]`` (m/s) of the interaction points: the per-vertex field alone, and in all.
-
-        The first is the field interpolated on meshes with vertex velocities (zero elsewhere; what
-        Sionna does not see); the second adds the per-object velocity Sionna uses (zero where the
-        field replaces it).
-        """
-        loaded = self._loaded
-        valid = paths.valid_interactions
-        vertex = np.zeros(paths.vertices.shape)
-        rigid = np.zeros(paths.vertices.shape)
-        for name, obj in loaded.scene.objects.items():
-            on = valid & (paths.shapes == int(obj.object_id))
-            if not np.any(on):
-                continue
-            v = velocities.get(name)
-            if v is not None and np.any(v != 0):
-                rigid[on] = v
-            field_v = loaded.vertex_velocity.get(name) if self.vertex_doppler else None
-            if field_v is not None:
-                faces = loaded.faces[name][paths.primitives[on]]
-                vpos = loaded.vertices[name]
-                w = barycentric_weights(paths.vertices[on], vpos[faces[:, 0]], vpos[faces[:, 1]], vpos[faces[:, 2]])
-                vertex[on] = interpolate(field_v, faces, w)
-        return vertex, rigid + vertex
-
-    @staticmethod
-    def _polyline_directions(paths: TracedPaths):
-        """Unit directions ``[P, D+1, 3]`` of the segments source -> v_1 -> ... -> v_d -> target (0 after the last)."""
-        starts, ends, _ = paths.segments()
-        seg = ends - starts
-        norm = np.linalg.norm(seg, axis=-1, keepdims=True)
-        return np.divide(seg, norm, out=np.zeros_like(seg), where=norm > 0)
-
-    def _vertex_doppler(self, paths: TracedPaths, vertex_velocity, wavelength: float) -> np.ndarray:
-        """Sum over interactions on meshes with vertex velocities of v(p).(k_out - k_in)/lambda (Hz)."""
-        if not np.any(vertex_velocity):
-            return np.zeros(paths.num_paths)
-        k = self._polyline_directions(paths)
-        k_in, k_out = k[:, :-1], k[:, 1:]
-        valid = paths.valid_interactions
-        return np.einsum("pdi,pdi->p", np.where(valid[..., None], vertex_velocity, 0.0), k_out - k_in) / wavelength
-
-    def _labels(self, paths: TracedPaths, velocities: dict) -> np.ndarray:
-        """Label ``[P]`` of every path (see the module docstring)."""
-        loaded, names_by_id = self._loaded, self._state.names_by_id
-        valid_int = paths.valid_interactions
-        shapes = paths.shapes
-        id_list = sorted(names_by_id)
-        lut_ids = np.array(id_list, dtype=np.int64)
-        lut_names = np.array([names_by_id[i] for i in id_list], dtype=object)
-        pos = np.clip(np.searchsorted(lut_ids, shapes), 0, len(lut_ids) - 1)
-        found = valid_int & (lut_ids[pos] == shapes)
-        per_int = np.where(found, lut_names[pos], "")
-        rows = np.arange(paths.num_paths)
-        first = per_int[:, 0]
-        if self.label == "first":
-            return first.astype(str)
-        if self.label == "last":
-            return per_int[rows, np.maximum(paths.num_interactions - 1, 0)].astype(str)
-        moving = {n for n, v in velocities.items() if np.any(v != 0)}
-        if self.vertex_doppler:
-            moving |= {n for n, v in loaded.vertex_velocity.items() if v is not None and np.any(v != 0)}
-        is_moving = np.vectorize(lambda s: s in moving, otypes=[bool])(per_int) & found
-        has = is_moving.any(axis=1)
-        idx = np.argmax(is_moving, axis=1)
-        return np.where(has, per_int[rows, idx], first).astype(str)
-
-    def _per_element_echoes(self, paths: TracedPaths, doppler, labels, radar) -> Echoes:
-        """``"per-element"``: every path belongs to one (source, target) = (Tx, Rx) element pair."""
-        m_tx, n_rx = radar.num_tx, radar.num_rx
-        src, tgt = paths.source, paths.target
-        num = paths.num_paths
-        link = src * n_rx + tgt
-        order = np.argsort(link, kind="stable")
-        link_sorted = link[order]
-        counts = np.bincount(link, minlength=m_tx * n_rx)
-        starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
-        rank = np.empty(num, dtype=np.int64)
-        rank[order] = np.arange(num) - starts[link_sorted]
-        shape = (m_tx, n_rx, int(counts.max()))
-        out_a = np.zeros(shape, dtype=np.complex128)
-        out_tau = np.zeros(shape)
-        out_dop = np.zeros(shape)
-        out_lab = np.full(shape, "", dtype=object)
-        out_a[src, tgt, rank] = paths.a
-        out_tau[src, tgt, rank] = paths.tau
-        out_dop[src, tgt, rank] = doppler
-        out_lab[src, tgt, rank] = labels
-        return Echoes(out_a, out_tau, out_dop, out_lab.astype(str))
-
-    def _coherent_echoes(self, paths: TracedPaths, doppler, velocity, labels, radar, pose: RadarPose,
-                         wavelength: float) -> Echoes:
-        """``"coherent"``: every element pair from the traced path's interaction points (module docstring)."""
-        rot = rotation_matrix(pose.orientation)
-        t0, r0 = paths.sources[0], paths.targets[0]  # where Sionna traced from / to (world)
-        tx = t0 + (radar.tx_positions - radar.tx_positions.mean(axis=0)) @ rot.T  # [M, 3]
-        rx = r0 + (radar.rx_positions - radar.rx_positions.mean(axis=0)) @ rot.T  # [N, 3]
-        num, depth, _ = paths.vertices.shape
-        rows = np.arange(num)
-        valid = paths.valid_interactions
-        n_int = paths.num_interactions
-        first = paths.vertices[:, 0]                               # [P, 3]
-        last = paths.vertices[rows, n_int - 1]                     # [P, 3]
-        # inner segments: cum[:, i] = |v_2 - v_1| + ... + |v_{i+1} - v_i| (only between interactions)
-        seg = np.linalg.norm(np.diff(paths.vertices, axis=1), axis=-1) * valid[:, 1:]   # [P, D-1]
-        cum = np.concatenate([np.zeros((num, 1)), np.cumsum(seg, axis=1)], axis=1)    # [P, D]
-        inner = cum[rows, n_int - 1]
-
-        d_tx = first[None] - tx[:, None]                           # [M, P, 3] element -> v_1
-        d_rx = last[None] - rx[:, None]                            # [N, P, 3] element -> v_d
-        l_tx = np.linalg.norm(d_tx, axis=-1)                       # [M, P]
-        l_rx = np.linalg.norm(d_rx, axis=-1)                       # [N, P]
-        d_t0, d_r0 = first - t0, last - r0
-        l_t0, l_r0 = np.linalg.norm(d_t0, axis=-1), np.linalg.norm(d_r0, axis=-1)
-
-        tau = (l_tx[:, None, :] + inner[None, None, :] + l_rx[None, :, :]) / SPEED_OF_LIGHT
-
-        # spreading: the whole length for specular chains; before the first / after the last
-        # diffuse interaction for the others (see the module docstring)
-        is_diffuse = valid & (paths.types == int(InteractionType.DIFFUSE))
-        has_diffuse = is_diffuse.any(axis=1)
-        j_first = np.argmax(is_diffuse, axis=1)
-        j_last = depth - 1 - np.argmax(is_diffuse[:, ::-1], axis=1)
-        pre_inner = cum[rows, j_first]
-        post_inner = inner - cum[rows, j_last]
-        length0 = l_t0 + inner + l_r0
-        chain_scale = length0[None, None, :] / (tau * SPEED_OF_LIGHT)
-        diffuse_scale = (((l_t0 + pre_inner) / (l_tx + pre_inner))[:, None, :]
-                         * ((l_r0 + post_inner) / (l_rx + post_inner))[None, :, :])
-        scale = np.where(has_diffuse[None, None, :], diffuse_scale, chain_scale)
-        if radar.antenna_pattern != "iso":
-            scale = scale * self._pattern_ratio(radar.antenna_pattern, d_tx, d_t0, rot)[:, None, :]
-            scale = scale * self._pattern_ratio(radar.antenna_pattern, d_rx, d_r0, rot)[None, :, :]
-        a = paths.a[None, None, :] * scale
-
-        # Doppler: the first incident and the last outgoing directions change per element
-        k_in_m = d_tx / l_tx[..., None]                            # Tx element -> v_1
-        k_in_0 = d_t0 / l_t0[:, None]
-        k_out_n = -d_rx / l_rx[..., None]                          # v_d -> element
-        k_out_0 = -d_r0 / l_r0[:, None]
-        u_first = velocity[:, 0]
-        u_last = velocity[rows, n_int - 1]
-        shift_tx = np.einsum("pi,mpi->mp", u_first, k_in_0[None] - k_in_m) / wavelength
-        shift_rx = np.einsum("pi,npi->np", u_last, k_out_n - k_out_0[None]) / wavelength
-        f = doppler[None, None, :] + shift_tx[:, None, :] + shift_rx[None, :, :]
-        return Echoes(a, tau, f, labels)
-
-    @staticmethod
-    def _pattern_ratio(pattern: str, d_elements, d_centre, rot) -> np.ndarray:
-        """Amplitude ratio ``[K, P]`` sqrt(G(element direction) / G(centre direction)), directions world -> radar frame."""
-        g_el = antenna_gain(pattern, *direction_angles(d_elements @ rot))
-        g_0 = antenna_gain(pattern, *direction_angles(d_centre @ rot))
-        return np.sqrt(np.divide(g_el, g_0[None], out=np.ones_like(g_el), where=g_0[None] > 0))
-
-
-__all__ = ["DUPLICATE_LENGTH_TOLERANCE", "DUPLICATE_POINT_TOLERANCE", "PathEngine", "PathEngineError", "RADAR_MIN_SEGMENT_LENGTH",
-           "TracedPaths", "specular_chains", "specular_duplicates"]
+__all__ = ["PathEngine", "PathEngineError"]
