@@ -34,6 +34,9 @@ variable ``DRJIT_CACHE_DIR`` when it initialises (default ``$HOME/.drjit``, file
 
 ``--tree-a`` / ``--tree-b``: the run imports ``sionnafmcw`` from that checkout (``PYTHONPATH``),
 so that a code change is measured against the code before it, interleaved, with the same options.
+``--scene-a`` / ``--scene-b``: each method's own scene (default ``--scene`` for both), for a change
+of the scene format (issue 22: the walk written a PLY per segment and frame before, once per segment
+with a transform per frame after; each tree reads the scene its own builder wrote).
 
 Measured
 --------
@@ -288,6 +291,8 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=100, help="frames per run (default 100: the whole lap)")
     p.add_argument("--seeds", type=int, nargs="+", default=[1, 2, 3], help="path solver seeds (default 1 2 3)")
     p.add_argument("--scene", default=None, help="existing circle_walk animation directory (default: build one)")
+    p.add_argument("--scene-a", default=None, help="A's own scene (default --scene)")
+    p.add_argument("--scene-b", default=None, help="B's own scene (default --scene)")
     p.add_argument("--out", default="out/bench_circle_walk", help="scene and temporary run stores")
     p.add_argument("--radar", default="walk-77ghz")
     p.add_argument("--method-a", type=lambda s: json_dict(s, "--method-a"), default=METHODS["A"],
@@ -324,6 +329,8 @@ def main(argv=None) -> int:
         scene = Path(args.scene)
         if not (scene / "animation.json").is_file():
             p.error(f"--scene {scene}: no animation.json there")
+    elif args.scene_a and args.scene_b:
+        scene = Path(args.scene_b)
     else:
         from sionnafmcw.validation.common import build_scene
         scene = build_scene("circle_walk", out / "scene")
@@ -340,9 +347,14 @@ def main(argv=None) -> int:
           f"A = {json.dumps(methods['A'])} {args.tree_a or ''}, B = {json.dumps(methods['B'])} {args.tree_b or ''}",
           file=sys.stderr)
 
+    scenes = {"A": Path(args.scene_a) if args.scene_a else scene, "B": Path(args.scene_b) if args.scene_b else scene}
+    for method, path in scenes.items():
+        if not (path / "animation.json").is_file():
+            p.error(f"--scene-{method.lower()} {path}: no animation.json there")
+
     def spec(method, seed, frames, tag=""):
         label = f"{method}{tag}_s{seed}"
-        return {"label": label, "scene": str(scene), "radar": args.radar, "frames": frames,
+        return {"label": label, "scene": str(scenes[method]), "radar": args.radar, "frames": frames,
                 "options": methods[method] | {"seed": seed}, "store": str(out / f"run_{label}.zarr"),
                 "keep": args.keep_stores}
 

@@ -129,18 +129,20 @@ def ellipsoid(center, radii, n_rings: int = 12, n_segments: int = 24, rotation=N
 
 
 def _sphere_faces(n_lat, n_seg):
-    """Faces of a UV sphere: north pole 0, ``n_lat`` rings of ``n_seg``, south pole last."""
+    """Faces of a UV sphere: north pole 0, ``n_lat`` rings of ``n_seg``, south pole last (the caps'
+    fans around each meridian, then two triangles per cell of every pair of rings)."""
     south = 1 + n_lat * n_seg
-    ring = lambda i, j: 1 + i * n_seg + (j % n_seg)  # noqa: E731
-    faces = []
-    for j in range(n_seg):
-        faces.append((0, ring(0, j), ring(0, j + 1)))
-        faces.append((south, ring(n_lat - 1, j + 1), ring(n_lat - 1, j)))
-    for i in range(n_lat - 1):
-        for j in range(n_seg):
-            faces.append((ring(i, j), ring(i + 1, j), ring(i + 1, j + 1)))
-            faces.append((ring(i, j), ring(i + 1, j + 1), ring(i, j + 1)))
-    return np.array(faces, dtype=np.int64)
+    j = np.arange(n_seg)
+    jn = (j + 1) % n_seg
+    caps = np.empty((2 * n_seg, 3), dtype=np.int64)
+    caps[0::2] = np.stack([np.zeros(n_seg, np.int64), 1 + j, 1 + jn], -1)
+    last = 1 + (n_lat - 1) * n_seg
+    caps[1::2] = np.stack([np.full(n_seg, south), last + jn, last + j], -1)
+    i = np.arange(n_lat - 1)[:, None]
+    a, b = 1 + i * n_seg + j, 1 + (i + 1) * n_seg + j           # ring i and ring i + 1, meridian j
+    an, bn = 1 + i * n_seg + jn, 1 + (i + 1) * n_seg + jn
+    cells = np.stack([np.stack([a, b, bn], -1), np.stack([a, bn, an], -1)], axis=2).reshape(-1, 3)
+    return np.concatenate([caps, cells]).astype(np.int64)
 
 
 def capsule(p0, p1, radius: float, n_segments: int = 16, n_cap: int = 4, n_body: int = 4):
@@ -158,14 +160,14 @@ def capsule(p0, p1, radius: float, n_segments: int = 16, n_cap: int = 4, n_body:
     bottom = [(-np.pi / 2 * k / n_cap, 0.0) for k in range(0, n_cap)]
     rings = top + body + bottom
     phi = np.linspace(0.0, 2 * np.pi, n_segments, endpoint=False)
-    verts = [p0 + (length + radius) * z]
-    for a, h in rings:
-        c = radius * np.cos(a)
-        off = h + radius * np.sin(a)
-        verts.extend(p0 + off * z + c * (np.cos(ph) * x + np.sin(ph) * y) for ph in phi)
-    verts.append(p0 - radius * z)
+    a, h = np.array(rings).T
+    c = radius * np.cos(a)[:, None, None]
+    off = (h + radius * np.sin(a))[:, None, None]
+    around = np.cos(phi)[None, :, None] * x + np.sin(phi)[None, :, None] * y          # [1, S, 3]
+    ring_verts = (p0 + off * z + c * around).reshape(-1, 3)
+    verts = np.concatenate([(p0 + (length + radius) * z)[None], ring_verts, (p0 - radius * z)[None]])
     faces = _sphere_faces(len(rings), n_segments)
-    return np.array(verts), faces
+    return verts, faces
 
 
 def ellipse_perimeter(a: float, b: float) -> float:
