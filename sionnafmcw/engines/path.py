@@ -226,8 +226,8 @@ from ..constants import SPEED_OF_LIGHT
 from ..echoes import Echoes
 from ..geometry import rotation_matrix
 from ..sionna_rt import (
-    INVALID_SHAPE, AntennaArray, InteractionType, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi,
-    set_min_segment_length, solve_fields, trace_candidates,
+    INVALID_SHAPE, AntennaArray, InteractionType, PathSolver, Receiver, Transmitter, dr, mi, set_min_segment_length,
+    sionna_antenna_pattern, solve_fields, trace_candidates,
 )
 from .base import Engine, EngineError
 from .loaded_scene import barycentric_weights, interpolate
@@ -558,8 +558,8 @@ class PathEngine(Engine):
         Rx elements; ``"per-element"``: the radar's exact element layout.
         """
         wavelength = float(scene.wavelength[0]) if hasattr(scene.wavelength, "__len__") else float(scene.wavelength)
-        pattern = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
-        pattern_rx = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
+        pattern = sionna_antenna_pattern(radar.antenna_pattern, polarization="V")
+        pattern_rx = sionna_antenna_pattern(radar.antenna_pattern, polarization="V")
 
         def array(positions, pat):
             p = np.asarray(positions, dtype=float) / wavelength
