@@ -164,26 +164,42 @@ def centre(section: dict, fs: float) -> float:
     return section.get("centre_fs", 0.0) * fs
 
 
-def section_response(section: dict, f, fs: float) -> np.ndarray:
-    r""":math:`H_{sec}(f)` (complex) at frequencies ``f`` (Hz, any shape), through
-    :func:`scipy.signal.freqs_zpk` at the normalised frequency :math:`(f - f_0)/f_c`."""
-    from scipy import signal
+def _zpk_response(z, p, k, w: np.ndarray) -> np.ndarray:
+    r""":math:`k\prod(jw - z)/\prod(jw - p)` at real ``w`` (1-D), in place: what :func:`scipy.signal.freqs_zpk`
+    computes (``tests/test_receiver.py`` holds the chain to :func:`scipy.signal.freqs` of the same filters),
+    without its ``[roots, points]`` temporaries (a frame's 1e6 contributions)."""
+    s = 1j * w
+    num = np.full(w.shape, complex(k))
+    den = np.ones(w.shape, dtype=complex)
+    term = np.empty(w.shape, dtype=complex)
+    for root in z:
+        np.subtract(s, root, out=term)
+        num *= term
+    for root in p:
+        np.subtract(s, root, out=term)
+        den *= term
+    num /= den
+    return num
 
+
+def section_response(section: dict, f, fs: float) -> np.ndarray:
+    r""":math:`H_{sec}(f)` (complex) at frequencies ``f`` (Hz, any shape): the prototype's zeros, poles and
+    gain (:func:`scipy.signal.butter` ... with ``output="zpk"``) at the normalised frequency :math:`(f - f_0)/f_c`."""
     f = np.asarray(f, dtype=float)
-    w = (f - centre(section, fs)) / corner(section, fs)
+    w = (f.ravel() - centre(section, fs)) / corner(section, fs)
     z, p, k = section_zpk(section)
-    _, h = signal.freqs_zpk(z, p, k, w.ravel())
-    return h.reshape(f.shape)
+    return _zpk_response(z, p, k, w).reshape(f.shape)
 
 
 def response(chain, f, fs: float) -> np.ndarray:
     """The chain's complex gain :math:`H(f)` at physical frequencies ``f`` (Hz): the product of its sections
-    (1 for an empty or None chain)."""
+    (1 for an empty or None chain), evaluated in one pass over the chain's physical zeros and poles
+    (:func:`chain_zpk`)."""
     f = np.asarray(f, dtype=float)
-    h = np.ones(f.shape, dtype=complex)
-    for section in chain or ():
-        h *= section_response(section, f, fs)
-    return h
+    if not chain:
+        return np.ones(f.shape, dtype=complex)
+    z, p, k = chain_zpk(chain, fs)
+    return _zpk_response(z, p, k, 2 * np.pi * f.ravel()).reshape(f.shape)
 
 
 def has_lowpass(chain) -> bool:

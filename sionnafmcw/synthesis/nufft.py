@@ -94,6 +94,9 @@ CHANNELS_PER_PLAN = 3
 SHARED_PLAN_MAX_SOURCES = 15_000
 #: finufft fine-grid upsampling factor at tolerances >= 1e-6 (below, finufft's own choice).
 UPSAMPFAC = 1.25
+#: Largest residual phase bound (rad) at which a weighted sum (``beat_nufft(weights=...)``) drops its
+#: Taylor terms: its relative error is then below this (-40 dB).
+WEIGHTED_RESIDUAL_MAX = 0.01
 
 
 @dataclass
@@ -241,7 +244,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                taylor_tol: float = TAYLOR_TOL, max_error: float | None = None,
                channels_per_plan: int | None = None, upsampfac: float | None = None,
                precision: str | None = None, weights: np.ndarray | None = None):
-    """Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
+    r"""Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
 
     Parameters
     ----------
@@ -258,8 +261,12 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Override the precision chosen from the budget (for measurements of the error floor).
     weights : array ``[M, N, P]`` of real numbers, optional
         Also return the sum with every gain multiplied by its weight (the delays, for phase noise:
-        :mod:`sionnafmcw.receiver.phase_noise`): one more strength vector of the same plans (with the
-        same Taylor terms, so its error bound is the plain sum's scaled by the largest weight).
+        :mod:`sionnafmcw.receiver.phase_noise`): more strength vectors of the same plans. With the same
+        Taylor terms its error bound would be the plain sum's scaled by the largest weight; where
+        every contribution's residual phase bound :math:`2\pi|R_p|` on the grid (the sum of its
+        ``phases``) is below :data:`WEIGHTED_RESIDUAL_MAX` the weighted sum keeps only the constant
+        term, an error of at most that fraction of each weighted strength (for phase noise: a term
+        40 dB below the phase-noise term itself, which is 40 dB or more below its carrier).
 
     Returns complex64 when the budget allows single precision, complex128 otherwise; with ``weights``
     the pair ``(cube, weighted cube)``.
@@ -279,6 +286,10 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     if not channels:
         return out[0] if weights is None else (out[0], out[1])
     terms = list(accuracy.terms)
+    weighted_terms = 0 if weights is None else len(terms)
+    if weights is not None and max(float(c.phases.sum(axis=0).max(initial=0.0)) for c in channels) < WEIGHTED_RESIDUAL_MAX:
+        weighted_terms = 1
+    rows = len(terms) + weighted_terms          # strength vectors per channel
     basis_terms = []
     for term in terms:
         b = np.ones((L, Ns))
@@ -293,7 +304,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         sizes = [c.x.size for c in group]
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         # the last columns: two sources of zero strength at the corners of the band (ANCHORS)
-        vectors = np.zeros((len(group) * sums * len(terms), offsets[-1] + len(ANCHORS)), dtype=dtype)
+        vectors = np.zeros((len(group) * rows, offsets[-1] + len(ANCHORS)), dtype=dtype)
         for j, c in enumerate(group):
             strength = c.strength(dtype)
             strength *= real(scale)
@@ -302,9 +313,9 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                 for i, power in enumerate(term):
                     if power:
                         w = w * ((2j * np.pi * c.residual[i]) ** power / factorial(power)).astype(dtype)
-                vectors[j * sums * len(terms) + t, offsets[j]:offsets[j + 1]] = w
-                if sums == 2:
-                    vectors[(j * sums + 1) * len(terms) + t, offsets[j]:offsets[j + 1]] = w * c.weight.astype(real)
+                vectors[j * rows + t, offsets[j]:offsets[j + 1]] = w
+                if t < weighted_terms:
+                    vectors[j * rows + len(terms) + t, offsets[j]:offsets[j + 1]] = w * c.weight.astype(real)
         plan = finufft.Plan(3, 2, n_trans=vectors.shape[0], eps=accuracy.nufft_tol, isign=1, dtype=dtype.name,
                             nthreads=1, upsampfac=upsampfac, showwarn=0)
         target_y = grid.y if shift == 0.0 else grid.y + shift * grid.basis[0].ravel()   # the plan's keystone
@@ -312,13 +323,13 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                     np.concatenate([c.y for c in group] + [ANCHORS[:, 1]]).astype(real), None, target_x,
                     target_y.astype(real))
         values = plan.execute(vectors if vectors.shape[0] > 1 else vectors[0])
-        values = np.reshape(values, (len(group), sums, len(terms), L, Ns))
+        values = np.reshape(values, (len(group), rows, L, Ns))
         cubes = []
         for j, c in enumerate(group):
-            for o in range(sums):
-                cube = values[j, o, 0].copy()  # terms[0] is the constant monomial (basis 1)
-                for t in range(1, len(terms)):
-                    cube += values[j, o, t] * basis_terms[t]
+            for o, (first, count) in enumerate(((0, len(terms)), (len(terms), weighted_terms))[:sums]):
+                cube = values[j, first].copy()  # terms[0] is the constant monomial (basis 1)
+                for t in range(1, count):
+                    cube += values[j, first + t] * basis_terms[t]
                 cubes.append((o, c.m, c.n, cube))
         return cubes
 
@@ -334,5 +345,5 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     return out[0] if weights is None else (out[0], out[1])
 
 
-__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC", "beat_nufft",
-           "synthesis_accuracy", "taylor_order"]
+__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC",
+           "WEIGHTED_RESIDUAL_MAX", "beat_nufft", "synthesis_accuracy", "taylor_order"]
