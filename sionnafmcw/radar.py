@@ -130,6 +130,8 @@ class RadarConfig:
     iq_imbalance : dict, optional
         ``{"gain_db": ..., "phase_deg": ...}`` (:mod:`sionnafmcw.receiver.iq_imbalance`); None: none.
 
+    Notes
+    -----
     The receiver fields (``phase_noise`` .. ``iq_imbalance``) are off (None) unless given: the TI
     presets state their data sheets' values, ``walk-77ghz`` and custom radars are ideal
     (:mod:`sionnafmcw.receiver`).
@@ -358,10 +360,10 @@ class RadarConfig:
         if not np.isfinite(self.rx_gain):
             raise RadarConfigError(f"RadarConfig.rx_gain must be a finite gain in dB, got {self.rx_gain!r}")
         if self.if_filter:
+            from .receiver.if_filter import corner
+
             low = [s for s in self.if_filter if s["type"] == "lowpass"]
             for section in self.if_filter:
-                from .receiver.if_filter import corner
-
                 if corner(section, self.fs) >= 50 * self.fs:
                     raise RadarConfigError(f"RadarConfig.if_filter: the {section['type']} corner "
                                            f"{corner(section, self.fs):.4g} Hz is beyond 50 F_s; check its units (Hz)")

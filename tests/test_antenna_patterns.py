@@ -210,3 +210,27 @@ def test_path_engine_plate_swept_in_azimuth_follows_the_pattern(tmp_path, patter
         g_r = antenna_gain(spec, *direction_angles((own - rx[None, :]) @ rot))
         spread.append(np.abs(measured_db - 10 * np.log10(g_t * g_r)).max())
     assert max(spread) < 0.2
+
+
+def test_pixel_engine_plate_follows_the_pattern(tmp_path):
+    """The pixel engine (physical optics on its render) of a 0.4 m plate at 5 m, radar yawed: the coherent echo
+    with the board pattern over the isotropic one is the two-way gain towards the plate, G_t G_r, within the
+    pattern's own variation over the plate (its corners seen from the radar: 0.16 dB two-way at boresight,
+    1.8 dB at 45 degrees, where the measured ratio is within 0.05 dB of the centre's)."""
+    from sionnafmcw.animation import load_animation
+    from sionnafmcw.engines import PixelEngine
+
+    base = RadarConfig.preset(BOARD).replace(phase_noise=None, if_filter=None, adc_bits=None)
+    anim = load_animation(write_plate_animation(tmp_path / "plate", distance=5.0, velocity=(0.0, 0.0, 0.0),
+                                                num_frames=1, size=(0.4, 0.4)))
+    corners = np.array([[5.0, y, z] for y in (-0.2, 0.2) for z in (-0.2, 0.2)])
+    for yaw in np.deg2rad([-45.0, 0.0, 30.0]):
+        pose = ((0.0, 0.0, 0.0), (yaw, 0.0, 0.0))
+        a = {k: PixelEngine().echoes(anim, base.replace(antenna_pattern=k), 0, radar_pose=pose).a.sum(axis=-1)
+             for k in ("iso", BOARD)}
+        measured = 20 * np.log10(np.abs(a[BOARD] / a["iso"]))
+        rot = np.array([[np.cos(yaw), -np.sin(yaw), 0], [np.sin(yaw), np.cos(yaw), 0], [0, 0, 1]])
+        centre = 2 * 10 * np.log10(antenna_gain(BOARD, *direction_angles(np.array([5.0, 0, 0]) @ rot)))
+        spread = np.abs(2 * 10 * np.log10(antenna_gain(BOARD, *direction_angles(corners @ rot))) - centre).max()
+        assert 0.01 < spread < 3.0
+        np.testing.assert_allclose(measured, centre, atol=spread)

@@ -259,8 +259,9 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Threads (default: CPU count, at most one per plan).
     precision : {"complex64", "complex128"}, optional
         Override the precision chosen from the budget (for measurements of the error floor).
-    weights : array ``[M, N, P]`` of real numbers, optional
-        Also return the sum with every gain multiplied by its weight (the delays, for phase noise:
+    weights : ndarray, optional
+        Real weights ``[M, N, P]``, one per contribution: also return the sum with every gain
+        multiplied by its weight (the delays, for phase noise:
         :mod:`sionnafmcw.receiver.phase_noise`): more strength vectors of the same plans. With the same
         Taylor terms its error bound would be the plain sum's scaled by the largest weight; where
         every contribution's residual phase bound :math:`2\pi|R_p|` on the grid (the sum of its
@@ -268,8 +269,11 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         term, an error of at most that fraction of each weighted strength (for phase noise: a term
         40 dB below the phase-noise term itself, which is 40 dB or more below its carrier).
 
-    Returns complex64 when the budget allows single precision, complex128 otherwise; with ``weights``
-    the pair ``(cube, weighted cube)``.
+    Returns
+    -------
+    ndarray or tuple
+        The cube, complex64 when the budget allows single precision, complex128 otherwise; with
+        ``weights`` the pair of the cube and the weighted cube.
     """
     if channels_per_plan is not None and channels_per_plan < 1:
         raise ValueError(f"beat_nufft: channels_per_plan must be >= 1, got {channels_per_plan!r}")
