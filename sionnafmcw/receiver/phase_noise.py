@@ -36,7 +36,8 @@ the time over which :math:`\varphi` changes within the receiver band,
 .. math:: x(t) \approx \sum_p x_p(t) + j\,\dot\varphi(t) \sum_p \tau_p\, x_p(t) = x(t) + j\,\dot\varphi(t)\, y(t),
 
 where :math:`y` is the beat sum with every gain multiplied by its delay: one more strength vector
-of the same NUFFT plan (:func:`~sionnafmcw.synthesis.nufft.beat_nufft`, ``delay_weighted``), and
+of the same NUFFT plans (:func:`~sionnafmcw.synthesis.nufft.beat_nufft`, ``weights``; without Taylor
+terms where every residual phase is below 0.01 rad, an error 40 dB under this term), and
 :math:`\dot\varphi` (the LO's frequency noise, rad/s) one realisation per CPI shared by every
 contribution and every channel, so contributions at different delays see the same, correlated
 noise. Approximations and their bounds:
