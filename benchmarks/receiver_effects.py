@@ -64,7 +64,8 @@ def variants(base):
 
 def random_echoes(radar, count, seed):
     rng = np.random.default_rng(seed)
-    return Echoes.point_targets(radar, ranges=rng.uniform(1.0, 11.0, count), radial_velocities=rng.uniform(-8, 8, count),
+    return Echoes.point_targets(radar, ranges=rng.uniform(1.0, 11.0, count),
+                                radial_velocities=rng.uniform(-8, 8, count),
                                 azimuths=np.deg2rad(rng.uniform(-60, 60, count)), rcs=10 ** rng.uniform(-4, -2, count))
 
 
@@ -116,7 +117,8 @@ def figure_phase_noise(out: Path, plt) -> None:
     with_pn = _profile(synthesize(target, radar, rng=1), w)
     without = _profile(synthesize(target, off, rng=1), w)
     # reference: the carrier's on-bin peak |A|^2 (sum w)^2 / sum w^2, free of scalloping
-    carrier = np.mean(np.abs(synthesize(target, off, noise=False).astype(np.complex128)) ** 2) * w.sum() ** 2 / np.sum(w ** 2)
+    carrier = np.mean(np.abs(synthesize(target, off, noise=False).astype(np.complex128)) ** 2)
+    carrier *= w.sum() ** 2 / np.sum(w ** 2)
     ranges = np.arange(n) * radar.range_resolution
     tau = 2 * 3.0 / 299792458.0
     peak = int(np.argmax(without))
@@ -124,8 +126,8 @@ def figure_phase_noise(out: Path, plt) -> None:
     skirt = np.full(n, np.nan)
     ok = offset != 0
     enbw = n * np.sum(w ** 2) / w.sum() ** 2     # the window's noise bandwidth in bins (1.5 for Hann): noise-like
-    skirt[ok] = (carrier * 10 ** (phase_noise.skirt_dbc(radar.phase_noise, offset[ok], tau) / 10)   # skirt vs the
-                 * radar.fs / n * enbw)                                                             # peak it spreads from
+    # the skirt against the peak it spreads from
+    skirt[ok] = carrier * 10 ** (phase_noise.skirt_dbc(radar.phase_noise, offset[ok], tau) / 10) * radar.fs / n * enbw
     fig, ax = plt.subplots(figsize=(7.5, 4.2))
     ax.plot(ranges, 10 * np.log10(without / carrier), lw=1, label="phase noise off")
     ax.plot(ranges, 10 * np.log10(with_pn / carrier), lw=1, label="phase noise on (-93 dBc/Hz at 1 MHz)")

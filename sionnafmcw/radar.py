@@ -190,7 +190,8 @@ class RadarConfig:
             raise RadarConfigError(str(err)) from None
         if self.adc_bits is not None:
             if not _is_real(self.adc_bits) or float(self.adc_bits) != int(self.adc_bits):
-                raise RadarConfigError(f"RadarConfig.adc_bits must be an integer (2..16) or None, got {self.adc_bits!r}")
+                raise RadarConfigError(
+                    f"RadarConfig.adc_bits must be an integer (2..16) or None, got {self.adc_bits!r}")
             self.adc_bits = int(self.adc_bits)
 
     # ------------------------------------------------------------------ derived figures
@@ -348,7 +349,8 @@ class RadarConfig:
                 raise RadarConfigError(f"RadarConfig.{err}") from None
         elif self.antenna_pattern not in PATTERNS:
             raise RadarConfigError(
-                f"RadarConfig.antenna_pattern={self.antenna_pattern!r} is unknown; choose one of {', '.join(PATTERNS)}, "
+                f"RadarConfig.antenna_pattern={self.antenna_pattern!r} is unknown; choose one of "
+                f"{', '.join(PATTERNS)}, "
                 "or give a measured pattern file (.json or .csv: angles in degrees, gains in dBi)"
             )
         if self.adc_bits is not None and not 2 <= self.adc_bits <= 16:
@@ -526,7 +528,8 @@ def _check_field_type(name: str, value) -> None:
             raise RadarConfigError(f"RadarConfig.{name} must be a list or null, got {value!r}")
     elif name == "iq_imbalance" and value is not None:
         if not isinstance(value, dict):
-            raise RadarConfigError(f"RadarConfig.iq_imbalance must be a dict {{gain_db, phase_deg}} or null, got {value!r}")
+            raise RadarConfigError(
+                f"RadarConfig.iq_imbalance must be a dict {{gain_db, phase_deg}} or null, got {value!r}")
     elif name == "tx_order" and value is not None:
         if (not isinstance(value, (list, tuple, np.ndarray))
                 or not all(_is_real(i) and float(i) == int(i) for i in value)):

@@ -174,7 +174,8 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
 
 
 def _delay_weights(echoes, radar) -> np.ndarray:
-    """The phase-noise weights of ``echoes``: their delays at the CPI centre (:mod:`sionnafmcw.receiver.phase_noise`)."""
+    """The phase-noise weights of ``echoes``: their delays at the CPI centre
+    (:mod:`sionnafmcw.receiver.phase_noise`)."""
     from ..receiver.phase_noise import delay_weights
 
     return delay_weights(echoes.tau, echoes.doppler, radar)
@@ -219,5 +220,5 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
     return static + beat_nufft(part, radar, max_error=dynamic_error), None
 
 
-__all__ = ["AdcClippingWarning", "METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "SynthesisAccuracy", "beat_direct", "beat_nufft",
-           "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]
+__all__ = ["AdcClippingWarning", "METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "SynthesisAccuracy",
+           "beat_direct", "beat_nufft", "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]

@@ -291,7 +291,8 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         return out[0] if weights is None else (out[0], out[1])
     terms = list(accuracy.terms)
     weighted_terms = 0 if weights is None else len(terms)
-    if weights is not None and max(float(c.phases.sum(axis=0).max(initial=0.0)) for c in channels) < WEIGHTED_RESIDUAL_MAX:
+    largest_residual = max(float(c.phases.sum(axis=0).max(initial=0.0)) for c in channels)
+    if weights is not None and largest_residual < WEIGHTED_RESIDUAL_MAX:
         weighted_terms = 1
     rows = len(terms) + weighted_terms          # strength vectors per channel
     basis_terms = []
