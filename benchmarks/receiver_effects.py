@@ -8,10 +8,11 @@ noise-budgeted NUFFT) with ``--contributions`` random point echoes per channel (
 +-60 degrees, 1e-4 to 1e-2 m^2: a frame's worth of paths whose echo sum stays inside the ADC),
 synthesised with each effect on alone (the TI presets' values: phase noise -93 dBc/Hz at 1 MHz,
 the HPF 175 + 350 kHz and complex-1x anti-alias chain, a 16-bit ADC at 30 dB / 0 dBm, I/Q
-imbalance 0.5 dB / 3 degrees) and with all of them, and without (the baseline). The variants
-run interleaved in one process, ``--repeat`` rounds in a fresh random order each (the machine is
-shared and noisy); it prints every variant's median wall time, its ratio to the baseline's median
-and the median of the per-round ratios (each against the baseline of its own round).
+imbalance 0.5 dB / 3 degrees) and with all of them, against the baseline without. The machine is
+shared and its load drifts, so every variant run is paired with a baseline run next to it (in
+random order), ``--repeat`` rounds with the variants in a fresh random order each; it prints the
+median of the paired wall-time ratios with their quartiles, and of the paired CPU-time ratios
+(this process, all threads: less sensitive to other users).
 
 ``figures``: writes ``receiver_phase_noise.png``, ``receiver_if_chain.png``, ``receiver_adc_iq.png`` and
 ``receiver_patterns.png`` to ``--out`` and prints the figures each shows:
@@ -69,29 +70,41 @@ def random_echoes(radar, count, seed):
                                 azimuths=np.deg2rad(rng.uniform(-60, 60, count)), rcs=10 ** rng.uniform(-4, -2, count))
 
 
+def _timed(echoes, radar, seed):
+    """(wall s, CPU s of this process, all threads) of one noisy synthesis."""
+    w0, c0 = time.perf_counter(), time.process_time()
+    synthesize(echoes, radar, rng=seed)
+    return time.perf_counter() - w0, time.process_time() - c0
+
+
 def cost(args) -> None:
     base = RadarConfig.preset("walk-77ghz")
     radars = variants(base)
+    effects = [name for name in radars if name != "baseline"]
     echoes = random_echoes(base, args.contributions, args.seed)
     print(f"walk-77ghz cube {base.num_chirps} x {base.num_tx * base.num_rx} x {base.num_samples}, "
-          f"{echoes.num_contributions} contributions per channel, noise on, {args.repeat} interleaved rounds")
+          f"{echoes.num_contributions} contributions per channel, noise on; {args.repeat} rounds, each variant "
+          "paired with a baseline run next to it (random order within the pair)")
     warnings.simplefilter("ignore")
     synthesize(echoes, base, rng=0)                       # warm-up: finufft, FFT plans
-    times = {name: [] for name in radars}
-    order = list(radars)
+    pairs = {name: [] for name in effects}                # (variant wall, baseline wall, variant CPU, baseline CPU)
     shuffler = random.Random(args.seed)
     for r in range(args.repeat):
-        shuffler.shuffle(order)
-        for name in order:
-            t0 = time.perf_counter()
-            synthesize(echoes, radars[name], rng=r)
-            times[name].append(time.perf_counter() - t0)
-    base_median = statistics.median(times["baseline"])
-    print(f"{'variant':<15}{'median s':>10}{'ratio':>8}{'per-round ratio':>17}")
-    for name, t in times.items():
-        ratios = [x / b for x, b in zip(t, times["baseline"])]
-        print(f"{name:<15}{statistics.median(t):>10.3f}{statistics.median(t) / base_median:>8.3f}"
-              f"{statistics.median(ratios):>17.3f}")
+        shuffler.shuffle(effects)
+        for name in effects:
+            order = [name, "baseline"]
+            shuffler.shuffle(order)
+            t = {k: _timed(echoes, radars[k], r) for k in order}
+            pairs[name].append((t[name][0], t["baseline"][0], t[name][1], t["baseline"][1]))
+    print(f"{'effect':<15}{'wall s':>8}{'baseline s':>11}{'wall ratio':>11}{'  (quartiles)':<16}{'CPU ratio':>10}")
+    for name in variants(base):
+        if name == "baseline":
+            continue
+        p = np.array(pairs[name])
+        wall, cpu = p[:, 0] / p[:, 1], p[:, 2] / p[:, 3]
+        q1, q3 = np.percentile(wall, [25, 75])
+        print(f"{name:<15}{np.median(p[:, 0]):>8.3f}{np.median(p[:, 1]):>11.3f}{np.median(wall):>11.3f}"
+              f"  ({q1:.2f}-{q3:.2f})    {np.median(cpu):>10.3f}")
 
 
 # ---------------------------------------------------------------------------------------- figures
