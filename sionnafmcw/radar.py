@@ -24,6 +24,7 @@ where :math:`M` is the number of transmitters and :math:`L` the number of chirps
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import json
 import numbers
@@ -34,7 +35,7 @@ from typing import Any
 import numpy as np
 
 from . import array
-from .antenna import PATTERNS
+from .antenna import PATTERNS, check_pattern
 from .constants import SPEED_OF_LIGHT
 
 
@@ -107,10 +108,33 @@ class RadarConfig:
         Transmit power per element :math:`P_t` (W).
     noise_figure : float
         Receiver noise figure (dB).
-    antenna_pattern : str
-        Element pattern, one of :data:`sionnafmcw.antenna.PATTERNS` (Sionna RT's names).
+    antenna_pattern : str or dict
+        Element pattern: a name of :data:`sionnafmcw.antenna.PATTERNS` (``"iso"``, ``"tr38901"``, the TI
+        boards' ``"ti-awr1843boost"``, ...) or a measured pattern: the path of a ``.json``/``.csv`` file
+        (read here, :func:`sionnafmcw.antenna.load_pattern_file`, and kept as its dict, so that a run
+        store holds the pattern itself) or that dict.
     name : str
         A label (the preset name for presets).
+    phase_noise : list, optional
+        LO phase noise ``[[offset (Hz), L (dBc/Hz)], ...]`` (:mod:`sionnafmcw.receiver.phase_noise`);
+        None: no phase noise.
+    if_filter : list, optional
+        IF chain, a list of filter sections (:mod:`sionnafmcw.receiver.if_filter`); None: ideal.
+    adc_bits : int, optional
+        ADC word length (2..16) of the ADC in the cube (:mod:`sionnafmcw.receiver.adc`); None: no
+        quantisation, no clipping.
+    adc_full_scale : float
+        Power (W) at the ADC input of a full-scale complex tone (default 1 mW, 0 dBm).
+    rx_gain : float
+        Receiver gain from the antenna port to the ADC (dB; TI's ``rxGain``), default 30 dB.
+    iq_imbalance : dict, optional
+        ``{"gain_db": ..., "phase_deg": ...}`` (:mod:`sionnafmcw.receiver.iq_imbalance`); None: none.
+
+    Notes
+    -----
+    The receiver fields (``phase_noise`` .. ``iq_imbalance``) are off (None) unless given: the TI
+    presets state their data sheets' values, ``walk-77ghz`` and custom radars are ideal
+    (:mod:`sionnafmcw.receiver`).
     """
 
     fc: float
@@ -128,6 +152,12 @@ class RadarConfig:
     noise_figure: float = 12.0
     antenna_pattern: str = "iso"
     name: str = "custom"
+    phase_noise: list = None
+    if_filter: list = None
+    adc_bits: int = None
+    adc_full_scale: float = 1e-3
+    rx_gain: float = 30.0
+    iq_imbalance: dict = None
 
     def __post_init__(self):
         self.tx_positions = np.atleast_2d(np.asarray(self.tx_positions, dtype=float))
@@ -137,7 +167,32 @@ class RadarConfig:
         self.tx_order = [int(i) for i in self.tx_order]
         self.num_samples = int(self.num_samples)
         self.num_chirps = int(self.num_chirps)
+        self._normalise_receiver()
         self.validate()
+
+    def _normalise_receiver(self) -> None:
+        """Read a measured pattern file, check and normalise the receiver fields (errors name the field)."""
+        from .antenna import PATTERNS, load_pattern_file
+        from .receiver import if_filter, iq_imbalance, phase_noise
+
+        pattern = self.antenna_pattern
+        if isinstance(pattern, Path) or (isinstance(pattern, str) and pattern not in PATTERNS
+                                         and (pattern.lower().endswith((".json", ".csv")) or Path(pattern).is_file())):
+            try:
+                self.antenna_pattern = load_pattern_file(pattern)
+            except ValueError as err:
+                raise RadarConfigError(f"RadarConfig.antenna_pattern: {err}") from None
+        try:
+            self.phase_noise = phase_noise.check_table(self.phase_noise)
+            self.if_filter = if_filter.check_chain(self.if_filter)
+            self.iq_imbalance = iq_imbalance.check(self.iq_imbalance)
+        except ValueError as err:
+            raise RadarConfigError(str(err)) from None
+        if self.adc_bits is not None:
+            if not _is_real(self.adc_bits) or float(self.adc_bits) != int(self.adc_bits):
+                raise RadarConfigError(
+                    f"RadarConfig.adc_bits must be an integer (2..16) or None, got {self.adc_bits!r}")
+            self.adc_bits = int(self.adc_bits)
 
     # ------------------------------------------------------------------ derived figures
     @property
@@ -287,10 +342,35 @@ class RadarConfig:
             raise RadarConfigError(
                 f"RadarConfig.tx_order must be a permutation of 0..{self.num_tx - 1}, got {self.tx_order}"
             )
-        if self.antenna_pattern not in PATTERNS:
+        if isinstance(self.antenna_pattern, dict):
+            try:
+                check_pattern(self.antenna_pattern)
+            except ValueError as err:
+                raise RadarConfigError(f"RadarConfig.{err}") from None
+        elif self.antenna_pattern not in PATTERNS:
             raise RadarConfigError(
-                f"RadarConfig.antenna_pattern={self.antenna_pattern!r} is unknown; choose one of {', '.join(PATTERNS)}"
+                f"RadarConfig.antenna_pattern={self.antenna_pattern!r} is unknown; choose one of "
+                f"{', '.join(PATTERNS)}, "
+                "or give a measured pattern file (.json or .csv: angles in degrees, gains in dBi)"
             )
+        if self.adc_bits is not None and not 2 <= self.adc_bits <= 16:
+            raise RadarConfigError(f"RadarConfig.adc_bits must lie in 2..16 (the ADC's word; the DCA1000 captures "
+                                   f"16-bit words) or be None for no ADC in the cube, got {self.adc_bits!r}")
+        if not np.isfinite(self.adc_full_scale) or self.adc_full_scale <= 0:
+            raise RadarConfigError(f"RadarConfig.adc_full_scale must be a positive power in W (1e-3 = 0 dBm), "
+                                   f"got {self.adc_full_scale!r}")
+        if not np.isfinite(self.rx_gain):
+            raise RadarConfigError(f"RadarConfig.rx_gain must be a finite gain in dB, got {self.rx_gain!r}")
+        if self.if_filter:
+            from .receiver.if_filter import corner
+
+            low = [s for s in self.if_filter if s["type"] == "lowpass"]
+            for section in self.if_filter:
+                if corner(section, self.fs) >= 50 * self.fs:
+                    raise RadarConfigError(f"RadarConfig.if_filter: the {section['type']} corner "
+                                           f"{corner(section, self.fs):.4g} Hz is beyond 50 F_s; check its units (Hz)")
+            if len(low) > 1:
+                raise RadarConfigError("RadarConfig.if_filter: give at most one lowpass (anti-alias) section")
         if frame_period is not None and self.cpi_duration > frame_period * (1 + 1e-9):
             raise RadarConfigError(
                 f"RadarConfig: the CPI (num_chirps * num_tx * chirp_interval = {self.cpi_duration * 1e3:.3f} ms) "
@@ -306,6 +386,8 @@ class RadarConfig:
             value = getattr(self, f.name)
             if isinstance(value, np.ndarray):
                 value = value.tolist()
+            elif isinstance(value, (list, dict)):
+                value = copy.deepcopy(value)      # nested receiver fields: the dict never aliases the radar
             out[f.name] = value
         return out
 
@@ -406,9 +488,10 @@ class RadarConfig:
         return _PRESETS[name]()
 
 
-_FLOAT_FIELDS = ("fc", "slope", "fs", "chirp_interval", "adc_start_time", "ramp_end_time", "tx_power", "noise_figure")
+_FLOAT_FIELDS = ("fc", "slope", "fs", "chirp_interval", "adc_start_time", "ramp_end_time", "tx_power", "noise_figure",
+                 "adc_full_scale", "rx_gain")
 _INT_FIELDS = ("num_samples", "num_chirps")
-_STR_FIELDS = ("antenna_pattern", "name")
+_STR_FIELDS = ("name",)
 
 
 def _is_real(value) -> bool:
@@ -433,6 +516,20 @@ def _check_field_type(name: str, value) -> None:
             raise RadarConfigError(f"RadarConfig.{name} must be a list of [x, y, z] positions (m), got {value!r}") from None
         if pos.ndim != 2 or pos.shape[1] != 3:
             raise RadarConfigError(f"RadarConfig.{name} must be a list of [x, y, z] positions (m), got shape {pos.shape}")
+    elif name == "antenna_pattern":
+        if not isinstance(value, (str, dict)):
+            raise RadarConfigError(f"RadarConfig.antenna_pattern must be a pattern name, the path of a measured "
+                                   f"pattern file or a measured pattern dict, got {value!r}")
+    elif name == "adc_bits" and value is not None:
+        if not _is_real(value) or float(value) != int(value):
+            raise RadarConfigError(f"RadarConfig.adc_bits must be an integer (2..16) or null, got {value!r}")
+    elif name in ("phase_noise", "if_filter") and value is not None:
+        if not isinstance(value, (list, tuple)):
+            raise RadarConfigError(f"RadarConfig.{name} must be a list or null, got {value!r}")
+    elif name == "iq_imbalance" and value is not None:
+        if not isinstance(value, dict):
+            raise RadarConfigError(
+                f"RadarConfig.iq_imbalance must be a dict {{gain_db, phase_deg}} or null, got {value!r}")
     elif name == "tx_order" and value is not None:
         if (not isinstance(value, (list, tuple, np.ndarray))
                 or not all(_is_real(i) and float(i) == int(i) for i in value)):
@@ -498,8 +595,13 @@ def _from_ti_cfg(path: Path) -> RadarConfig:
 
 
 def _ti_profile(name, start_ghz, idle_us, adc_start_us, ramp_end_us, slope_mhz_us, num_samples,
-                rate_ksps, num_loops, tx_positions, rx_positions, tx_order, tx_power_dbm, noise_figure):
-    """A TI mmWave SDK ``profileCfg``/``frameCfg`` pair in SI units."""
+                rate_ksps, num_loops, tx_positions, rx_positions, tx_order, tx_power_dbm, noise_figure, device):
+    """A TI mmWave SDK ``profileCfg``/``frameCfg`` pair in SI units, with the device's receiver
+    (:mod:`sionnafmcw.receiver.ti`: HPF codes 0/0 of the profiles, the complex-1x anti-alias filter,
+    16-bit ADC at 30 dB gain, the data sheet's phase noise) and the board's element pattern."""
+    from .receiver import ti
+
+    f_stop = start_ghz * 1e9 + slope_mhz_us * 1e12 * ramp_end_us * 1e-6
     return RadarConfig(
         fc=start_ghz * 1e9,
         slope=slope_mhz_us * 1e12,
@@ -514,8 +616,13 @@ def _ti_profile(name, start_ghz, idle_us, adc_start_us, ramp_end_us, slope_mhz_u
         tx_order=tx_order,
         tx_power=10 ** ((tx_power_dbm - 30) / 10),
         noise_figure=noise_figure,
-        antenna_pattern="tr38901",
+        antenna_pattern=name,
         name=name,
+        phase_noise=ti.phase_noise_table(device, start_ghz * 1e9, f_stop),
+        if_filter=ti.if_chain(0, 0),
+        adc_bits=ti.ADC_BITS,
+        adc_full_scale=ti.ADC_FULL_SCALE,
+        rx_gain=ti.RX_GAIN_DB,
     )
 
 
@@ -525,10 +632,14 @@ def preset_ti_awr1843boost() -> RadarConfig:
     ``channelCfg 15 7 0``, ``profileCfg 0 77 267 7 57.14 0 0 70 1 256 5209 0 0 30``,
     chirps 0/1/2 on TX0/TX1/TX2, ``frameCfg 0 2 16 0 100 1 0``: 77 GHz, 70 MHz/us, 256 samples
     at 5.209 Msps, 16 loops of 3 Tx. TX power 12 dBm, noise figure 15 dB (AWR1843 data sheet,
-    SWRS222). Element layout: :func:`_ti_three_tx_layout` at 77 GHz.
+    SWRS222). Element layout: :func:`_ti_three_tx_layout` at 77 GHz; element pattern
+    ``"ti-awr1843boost"`` (:data:`sionnafmcw.antenna.BOARD_PATTERNS`); receiver of the data sheet
+    (:mod:`sionnafmcw.receiver.ti`): -93 dBc/Hz at 1 MHz (the 77-81 GHz sweep), HPF 175 + 350 kHz,
+    complex-1x anti-alias filter, 16-bit ADC.
     """
     tx, rx = _ti_three_tx_layout(77e9)
-    return _ti_profile("ti-awr1843boost", 77, 267, 7, 57.14, 70, 256, 5209, 16, tx, rx, [0, 1, 2], 12.0, 15.0)
+    return _ti_profile("ti-awr1843boost", 77, 267, 7, 57.14, 70, 256, 5209, 16, tx, rx, [0, 1, 2], 12.0, 15.0,
+                       "AWR1843")
 
 
 def preset_ti_iwr6843isk() -> RadarConfig:
@@ -537,10 +648,13 @@ def preset_ti_iwr6843isk() -> RadarConfig:
     ``profileCfg 0 60 359 7 57.14 0 0 70 1 256 5209 0 0 158``, chirps on TX0/TX1/TX2,
     ``frameCfg 0 2 16 0 100 1 0``: 60 GHz, 70 MHz/us, 256 samples at 5.209 Msps, 16 loops.
     TX power 12 dBm, noise figure 12 dB (IWR6843 data sheet, SWRS219). Layout as the other TI
-    boards (:func:`_ti_three_tx_layout`) at 62 GHz, the centre of the 60-64 GHz band.
+    boards (:func:`_ti_three_tx_layout`) at 62 GHz, the centre of the 60-64 GHz band; element
+    pattern ``"ti-iwr6843isk"``; receiver of the data sheet: -93 dBc/Hz at 1 MHz, HPF 175 + 350 kHz,
+    complex-1x anti-alias filter, 16-bit ADC (``rxGain`` 158 encodes 30 dB).
     """
     tx, rx = _ti_three_tx_layout(62e9)
-    return _ti_profile("ti-iwr6843isk", 60, 359, 7, 57.14, 70, 256, 5209, 16, tx, rx, [0, 1, 2], 12.0, 12.0)
+    return _ti_profile("ti-iwr6843isk", 60, 359, 7, 57.14, 70, 256, 5209, 16, tx, rx, [0, 1, 2], 12.0, 12.0,
+                       "IWR6843")
 
 
 def preset_ti_iwr1443boost() -> RadarConfig:
@@ -549,10 +663,12 @@ def preset_ti_iwr1443boost() -> RadarConfig:
     ``channelCfg 15 5 0`` (TX0 and TX2: the two azimuth transmitters, 2 lambda apart),
     ``profileCfg 0 77 429 7 57.14 0 0 70 1 256 5209 0 0 30``, ``frameCfg 0 1 16 0 100 1 0``:
     a 2 Tx x 4 Rx TDM array with an 8-element virtual ULA. TX power 12 dBm, noise figure
-    15 dB (IWR1443 data sheet, SWRS211).
+    15 dB (IWR1443 data sheet, SWRS211); element pattern ``"ti-iwr1443boost"``; receiver of the
+    data sheet: -93 dBc/Hz at 1 MHz, HPF 175 + 350 kHz, complex-1x anti-alias filter, 16-bit ADC.
     """
     tx, rx = _ti_three_tx_layout(77e9)
-    return _ti_profile("ti-iwr1443boost", 77, 429, 7, 57.14, 70, 256, 5209, 16, tx[[0, 2]], rx, [0, 1], 12.0, 15.0)
+    return _ti_profile("ti-iwr1443boost", 77, 429, 7, 57.14, 70, 256, 5209, 16, tx[[0, 2]], rx, [0, 1], 12.0, 15.0,
+                       "IWR1443")
 
 
 def preset_walk_77ghz() -> RadarConfig:

@@ -29,6 +29,10 @@ here, so that an upgrade of Sionna is a change of this file (and of the pins in
 * **Ray casting** (:func:`cast_rays`): Mitsuba's first-hit query on the loaded scene, with inputs
   in aligned buffers so that the kernels do not change from frame to frame.
 * **Kernel tracking** (:func:`track_kernels`): Dr.Jit kernel launches of a block.
+* **Element patterns** (:func:`sionna_antenna_pattern`, :func:`drjit_element_gain`): the radar's
+  element pattern (:mod:`sionnafmcw.antenna`, one formula on an array namespace) evaluated in
+  Dr.Jit, registered with Sionna's antenna-pattern registry under its ``registry_name`` (Sionna's
+  own ``"iso"`` and ``"tr38901"`` are used as they are) and used by the PO kernel.
 """
 
 from __future__ import annotations
@@ -56,7 +60,9 @@ import sionna.rt.scene as _sionna_scene  # noqa: E402
 from sionna.rt import (  # noqa: E402
     AntennaArray, ITURadioMaterial, PathSolver, RadioMaterial, Receiver, Transmitter, load_scene,
 )
-from sionna.rt.antenna_pattern import antenna_pattern_registry  # noqa: E402
+from sionna.rt.antenna_pattern import (  # noqa: E402
+    PolarizedAntennaPattern, antenna_pattern_registry, register_antenna_pattern,
+)
 from sionna.rt.constants import DEFAULT_THICKNESS, INVALID_SHAPE, InteractionType  # noqa: E402
 from sionna.rt.radio_materials.itu import ITU_MATERIALS_PROPERTIES  # noqa: E402
 from sionna.rt.radio_materials.scattering_pattern import LambertianPattern  # noqa: E402
@@ -254,6 +260,80 @@ def solve_fields(solver, scene, candidates: Candidates, *, samples_per_src: int,
     return buf
 
 
+# ---------------------------------------------------------------------------------------- element patterns
+class DrJitOps:
+    """:class:`sionnafmcw.antenna.NumpyOps` for Dr.Jit arrays (any float type of any backend)."""
+
+    minimum = staticmethod(dr.minimum)
+    maximum = staticmethod(dr.maximum)
+    floor = staticmethod(dr.floor)
+
+    @staticmethod
+    def clip(x, lo, hi):
+        return dr.clip(x, lo, hi)
+
+    @staticmethod
+    def gather(table, index):
+        """``table[index]`` with ``index`` a float array holding whole numbers (a numpy table of values)."""
+        kind = type(index)
+        values = _table_cache(id(table), kind, table)
+        return dr.gather(kind, values, dr.uint32_array_t(kind)(index))
+
+
+_TABLES: dict = {}
+
+
+def _table_cache(key, kind, table):
+    """A numpy table as a Dr.Jit array of ``kind`` (kept per table and type: the same buffer every call)."""
+    entry = _TABLES.get((key, kind))
+    if entry is None or entry[0] is not table:
+        entry = _TABLES[(key, kind)] = (table, kind(np.asarray(table, dtype=np.float64)))
+    return entry[1]
+
+
+DRJIT = DrJitOps()
+
+
+def drjit_element_gain(pattern, x, y, z):
+    """Linear power gain of ``pattern`` (a ``RadarConfig.antenna_pattern`` value) towards the radar-frame
+    direction ``(x, y, z)`` (Dr.Jit arrays): :func:`sionnafmcw.antenna.antenna_gain`'s formula in Dr.Jit."""
+    from .antenna import element_pattern
+
+    theta = dr.acos(dr.clip(z / dr.sqrt(x * x + y * y + z * z), -1.0, 1.0))
+    phi = dr.atan2(y, x)
+    g_db = element_pattern(pattern).gain_db(theta, phi, DRJIT)
+    return dr.exp2(g_db * float(np.log2(10.0) / 10.0))
+
+
+def _v_pattern(element):
+    """Sionna's vertically polarised pattern function of an :class:`~sionnafmcw.antenna.ElementPattern`."""
+
+    def v_pattern(theta, phi):
+        g_db = element.gain_db(theta, phi, DRJIT)
+        return mi.Complex2f(dr.sqrt(dr.exp2(g_db * float(np.log2(10.0) / 10.0))), 0)
+
+    return v_pattern
+
+
+def sionna_antenna_pattern(pattern, polarization: str = "V"):
+    """Sionna's ``AntennaPattern`` of ``pattern`` (a ``RadarConfig.antenna_pattern`` value): Sionna's own for
+    ``"iso"`` and ``"tr38901"``, otherwise the pattern's formula registered (once) under its
+    ``registry_name`` with Sionna's ``register_antenna_pattern``."""
+    from .antenna import element_pattern
+
+    element = element_pattern(pattern)
+    name = element.registry_name
+    if name not in antenna_pattern_registry.list():
+        v_pattern = _v_pattern(element)
+
+        def factory(*, polarization, polarization_model="tr38901_2"):
+            return PolarizedAntennaPattern(v_pattern=v_pattern, polarization=polarization,
+                                           polarization_model=polarization_model)
+
+        register_antenna_pattern(name, factory)
+    return antenna_pattern_registry.get(name)(polarization=polarization)
+
+
 # ---------------------------------------------------------------------------------------- kernels
 @dataclass
 class KernelCounts:
@@ -381,7 +461,8 @@ __all__ = [
     "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
     "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
     "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
-    "VERIFIED_VERSIONS", "aligned_float", "aligned_float64", "antenna_pattern_registry", "array_backend",
-    "cast_rays", "cast_scene", "check_versions", "dr", "installed_versions", "load_scene_at",
+    "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_float", "aligned_float64", "antenna_pattern_registry",
+    "array_backend", "cast_rays", "cast_scene", "check_versions", "dr", "drjit_element_gain", "installed_versions",
+    "load_scene_at", "sionna_antenna_pattern",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
 ]

@@ -118,11 +118,15 @@ def test_presets_table_has_the_derived_figures(capsys):
     for name in RadarConfig.presets():
         r = RadarConfig.preset(name)
         row = _table_row(out, name)
-        # preset fc B dR Rmax vmax dv CPI chirps samples M x N virtual
+        # preset fc B dR Rmax vmax dv CPI chirps samples M x N virtual, then the receiver
         expected = [name, f"{r.fc / 1e9:.2f}", f"{r.bandwidth / 1e9:.3f}", f"{r.range_resolution * 100:.2f}",
                     f"{r.max_range:.2f}", f"{r.max_velocity:.2f}", f"{r.velocity_resolution:.3f}",
                     f"{r.cpi_duration * 1e3:.2f}", str(r.num_chirps), str(r.num_samples), str(r.num_tx), "x",
                     str(r.num_rx), str(r.num_tx * r.num_rx)]
+        if name.startswith("ti-"):     # data-sheet receiver: PN at 1 MHz, HPF corners, IF band, ADC bits, pattern
+            expected += ["-93", "175+350", f"0-{0.8 * r.fs / 1e6:.2f}", "16", name]
+        else:
+            expected += ["off", "off", "off", "off", r.antenna_pattern]
         assert row == expected
 
 
@@ -138,6 +142,7 @@ def test_presets_json_and_config(capsys, tmp_path):
                 assert row[key] == pytest.approx(value, rel=1e-12), key
         assert row["fc"] == r.fc and row["num_virtual"] == r.num_tx * r.num_rx
         assert RadarConfig.from_dict(row["config"]) == r
+        assert row["receiver"]["adc_bits"] == r.adc_bits and row["receiver"]["antenna_pattern"] == r.antenna_pattern
     # --config writes a file that --radar reads back as the same radar
     status, out, _ = run_cli(capsys, "presets", "ti-iwr6843isk", "--config")
     assert status == 0

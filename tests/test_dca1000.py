@@ -103,15 +103,24 @@ def test_bare_bin_with_the_boards_own_cfg(tmp_path):
 
 
 def test_receiver_noise_in_counts(tmp_path):
-    """Thermal noise k T0 F Fs lands at sqrt(P_n) * 10^(G/20) * 32767 / sqrt(P_FS) counts rms."""
+    """Thermal noise k T0 F B_n lands at sqrt(P_n) * 10^(G/20) * 32767 / sqrt(P_FS) counts rms.
+
+    B_n is the noise bandwidth of the preset's IF chain (HPF 175 + 350 kHz, the complex-1x anti-alias
+    filter passing 0..0.8 Fs: 0.66 Fs, sionnafmcw.receiver.if_filter.noise_bandwidth); it was F_s
+    when the cube had no IF chain (-1.8 dB since: the filters remove that much of the white noise
+    on the board too). The cube already holds the preset's 16-bit ADC words at this scale."""
+    from sionnafmcw.receiver.if_filter import noise_bandwidth
+
     radar = RadarConfig.preset("ti-awr1843boost")
     silent = Echoes.point_targets(radar, ranges=[2.0], radial_velocities=[0.0], azimuths=[0.0], rcs=[0.0])
     cube = synthesize(silent, radar, rng=3)
     scale = AdcScale(rx_gain_db=30.0, adc_full_scale_dbm=0.0)
     write_dca1000(cube, radar, tmp_path / "cap", scale=scale)
     counts = read_dca1000(tmp_path / "cap")
-    noise_dbm = 10 * np.log10(1.380649e-23 * 290 * 1e3) + radar.noise_figure + 10 * np.log10(radar.fs)
-    expected_rms = 10 ** ((noise_dbm + 30.0 - 0.0) / 20) * 32767            # -61.8 dBm at the ADC: 27 counts
+    bandwidth = noise_bandwidth(radar.if_filter, radar.fs)
+    assert 0.6 * radar.fs < bandwidth < 0.8 * radar.fs
+    noise_dbm = 10 * np.log10(1.380649e-23 * 290 * 1e3) + radar.noise_figure + 10 * np.log10(bandwidth)
+    expected_rms = 10 ** ((noise_dbm + 30.0 - 0.0) / 20) * 32767            # -63.6 dBm at the ADC: 22 counts
     rms = np.sqrt(np.mean(np.abs(counts.astype(np.complex128)) ** 2))
     # 196608 complex samples: the rms estimate is good to 0.3 %; the rounding adds 1/6 count^2
     assert rms == pytest.approx(np.sqrt(expected_rms ** 2 + 1 / 6), rel=0.01)

@@ -29,6 +29,7 @@ def site(tmp_path_factory, executed_notebooks):
 
 def test_every_page_is_built(site):
     for page in ("index", "install", "conventions", "data_contract", "api", "guide/engines", "guide/ti",
+                 "guide/receiver",
                  "guide/datasets", "guide/scenes", "notebooks/01_quick_start", "notebooks/04_dataset_dask_tensorflow"):
         assert (site / f"{page}.html").is_file(), page
     api = (site / "api.html").read_text()

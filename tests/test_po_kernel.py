@@ -91,6 +91,24 @@ def test_kernel_equals_the_numpy_reference(renders, pattern, in_sample_phase, sh
         assert np.max(np.abs(f0)) > 1.0                              # moving targets: real Doppler shifts
 
 
+def test_kernel_evaluates_board_and_measured_patterns_as_numpy(renders, tmp_path):
+    """The kernel's element gains come from the same formula as antenna_gain for every pattern
+    (sionnafmcw.sionna_rt.drjit_element_gain): a TI board pattern and a measured two-cut table (read
+    from a file) give the numpy reference's contributions to rounding, as tr38901 and iso do."""
+    from sionnafmcw.antenna import load_pattern_file
+
+    angles = np.arange(-90.0, 91.0, 2.0)
+    path = tmp_path / "cuts.csv"
+    path.write_text("angle_deg,azimuth_dbi,elevation_dbi\n" + "\n".join(
+        f"{a},{9.0 - 12 * (a / 70) ** 2:.4f},{9.0 - 12 * (a / 25) ** 2 if abs(a) < 40 else -20:.4f}" for a in angles))
+    bounces, tx, rx, rot = renders
+    for pattern in ("ti-awr1843boost", load_pattern_file(path)):
+        for bounce in bounces[:2]:
+            a0, _, _ = reference(bounce, tx, rx, rot, pattern)
+            a1, _, _ = element_pair_po(bounce, tx, rx, rot, LAMBDA, pattern)
+            assert np.max(np.abs(a1 - a0)) <= 1e-12 * np.max(np.abs(a0)), bounce.depth
+
+
 def test_kernel_is_compiled_once_and_repeatable(renders):
     """A second render of another size runs the kernels already compiled; the same input gives the
     same output bit for bit (no reductions: one lane per output element)."""

@@ -29,7 +29,21 @@ COLUMNS = (
     ("samples", "per chirp", lambda r: r["num_samples"], "{}"),
     ("Tx x Rx", "", lambda r: f"{r['num_tx']} x {r['num_rx']}", "{}"),
     ("virtual", "channels", lambda r: r["num_virtual"], "{}"),
+    ("PN@1MHz", "dBc/Hz", lambda r: _or_off(r["receiver"]["phase_noise_1mhz_dbc_hz"], "{:.0f}"), "{}"),
+    ("HPF", "kHz", lambda r: "+".join(f"{c / 1e3:g}" for c in r["receiver"]["highpass_corners_hz"] or []) or "off",
+     "{}"),
+    ("IF band", "MHz", lambda r: _or_off(r["receiver"]["lowpass_passband_hz"],
+                                          lambda b: f"{b[0] / 1e6:g}-{b[1] / 1e6:.2f}"), "{}"),
+    ("ADC", "bits", lambda r: _or_off(r["receiver"]["adc_bits"], "{}"), "{}"),
+    ("pattern", "", lambda r: r["receiver"]["antenna_pattern"], "{}"),
 )
+
+
+def _or_off(value, fmt) -> str:
+    """``value`` formatted, or ``off`` for None (a receiver effect the radar does not model)."""
+    if value is None:
+        return "off"
+    return fmt(value) if callable(fmt) else fmt.format(value)
 
 
 def add_parser(add) -> None:
@@ -44,7 +58,10 @@ def add_parser(add) -> None:
 
 
 def row(name: str, radar) -> dict:
-    """A table row: the radar's derived figures (SI units) and its full configuration."""
+    """A table row: the radar's derived figures (SI units), its receiver (:func:`sionnafmcw.receiver.summary`)
+    and its full configuration."""
+    from ..receiver import summary
+
     d = radar.derived()
     return {
         "name": name, "fc": radar.fc, "centre_frequency": d["centre_frequency"], "bandwidth": d["bandwidth"],
@@ -52,7 +69,7 @@ def row(name: str, radar) -> dict:
         "max_velocity": d["max_velocity"], "velocity_resolution": d["velocity_resolution"],
         "cpi_duration": d["cpi_duration"], "num_tx": radar.num_tx, "num_rx": radar.num_rx,
         "num_virtual": d["num_virtual"], "num_samples": radar.num_samples, "num_chirps": radar.num_chirps,
-        "config": radar.to_dict(),
+        "receiver": summary(radar), "config": radar.to_dict(),
     }
 
 
@@ -92,4 +109,5 @@ def print_table(rows) -> None:
     for c in cells:
         print(line(c))
     print("\nmax vel. is the TDM-aware unambiguous radial velocity (lambda_mid / 4 M T_c); a scene's frame period "
-          "must be at least the CPI.")
+          "must be at least the CPI.\nReceiver (sionnafmcw.receiver): LO phase noise at 1 MHz, IF high-pass corners, "
+          "anti-alias pass band, ADC bits in the cube, element pattern; 'off' = ideal.")

@@ -125,7 +125,7 @@ from ..animation import Animation, RadarPose
 from ..constants import SPEED_OF_LIGHT
 from ..echoes import Echoes
 from ..geometry import rotation_matrix
-from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, antenna_pattern_registry, dr, mi
+from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, dr, mi, sionna_antenna_pattern
 from .base import Engine
 from .element_pairs import (
     coherent_echoes, diffuse_phases, interaction_velocities, path_labels, per_element_echoes, vertex_doppler,
@@ -318,8 +318,8 @@ class PathEngine(Engine):
         Rx elements; ``"per-element"``: the radar's exact element layout.
         """
         wavelength = float(scene.wavelength[0]) if hasattr(scene.wavelength, "__len__") else float(scene.wavelength)
-        pattern = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
-        pattern_rx = antenna_pattern_registry.get(radar.antenna_pattern)(polarization="V")
+        pattern = sionna_antenna_pattern(radar.antenna_pattern, polarization="V")
+        pattern_rx = sionna_antenna_pattern(radar.antenna_pattern, polarization="V")
 
         def array(positions, pat):
             p = np.asarray(positions, dtype=float) / wavelength

@@ -53,23 +53,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..constants import SPEED_OF_LIGHT
-from ..sionna_rt import aligned_float64, array_backend, dr
+from ..sionna_rt import aligned_float64, array_backend, dr, drjit_element_gain
 
-#: Half-power beamwidth of the ``"tr38901"`` element (rad), as in :func:`~sionnafmcw.antenna.antenna_gain`.
-_HALF_POWER = float(np.deg2rad(65.0))
-
-
-def _gain(pattern: str, x, y, z):
-    r"""Power gain of one element towards the radar-frame direction ``(x, y, z)`` (Dr.Jit), the formula of
-    :func:`~sionnafmcw.antenna.antenna_gain` (``"iso"``: 1; ``"tr38901"``: 3GPP TR 38.901, 8 dBi)."""
-    if pattern == "iso":
-        return dr.full(type(x), 1.0, dr.width(x))
-    theta = dr.acos(dr.clip(z / dr.sqrt(x * x + y * y + z * z), -1.0, 1.0))
-    phi = dr.atan2(y, x)
-    a_v = -dr.minimum(12.0 * dr.square((theta - np.pi / 2) / _HALF_POWER), 30.0)
-    a_h = -dr.minimum(12.0 * dr.square(phi / _HALF_POWER), 30.0)
-    a_db = -dr.minimum(-(a_v + a_h), 30.0) + 8.0
-    return dr.exp2(a_db * float(np.log2(10.0) / 10.0))
+def _gain(pattern, x, y, z):
+    r"""Power gain of one element towards the radar-frame direction ``(x, y, z)`` (Dr.Jit): the formula of
+    :func:`~sionnafmcw.antenna.antenna_gain` for any ``RadarConfig.antenna_pattern``
+    (:func:`~sionnafmcw.sionna_rt.drjit_element_gain`)."""
+    return drjit_element_gain(pattern, x, y, z)
 
 
 def _sinc_and_derivatives(y):

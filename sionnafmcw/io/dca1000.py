@@ -30,6 +30,10 @@ tone whose I and Q just reach :math:`\pm 2^{15}-1`):
     \quad\text{clipped to } [-2^{15}, 2^{15}-1] \text{ per I and Q}
 
 The clipped I/Q values are counted per frame and reported (:class:`CaptureReport`, the sidecar).
+By default the export uses the radar's own gain and full scale (``RadarConfig.rx_gain``,
+``RadarConfig.adc_full_scale``: :func:`sionnafmcw.receiver.adc.export_scale`), the scale of the
+ADC the cube may already hold (:mod:`sionnafmcw.receiver.adc`): a cube quantised by a 16-bit ADC
+in the synthesis is then written word for word, with nothing rounded or clipped again.
 ``read_dca1000`` returns counts; divide by :attr:`AdcScale.counts_per_sqrt_watt` for
 :math:`\sqrt{\mathrm{W}}` again.
 
@@ -212,7 +216,8 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
     board : TI board (name or :class:`~sionnafmcw.io.ti_cfg.Board`); default from the radar's preset name.
         Needed for ``dca1000`` (the lane order, the ``.cfg``); for ``npz`` without a board no ``.cfg`` is written.
     family : LVDS family overriding the board's
-    scale : :class:`AdcScale` (default: 30 dB gain, 0 dBm full scale), or a number: counts per sqrt(W)
+    scale : :class:`AdcScale` (default: the radar's ``rx_gain`` and ``adc_full_scale``, 30 dB and 0 dBm unless
+        set), or a number: counts per sqrt(W)
         (1.0 re-writes a cube that already holds counts, e.g. from :func:`read_dca1000`)
     frame_times : ``[frame]`` CPI start times (s) for the sidecar
     truth : dict of ground-truth arrays for the sidecar (``objects``, ``position``, ``velocity``, ``radial_velocity``)
@@ -223,7 +228,10 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
 
     if format not in ("dca1000", "npz"):
         raise CaptureError(f"unknown capture format {format!r}; choose 'dca1000' or 'npz'")
-    scale = AdcScale() if scale is None else scale
+    if scale is None:
+        from ..receiver.adc import export_scale
+
+        scale = export_scale(radar)
     scale_info = scale.to_dict() if isinstance(scale, AdcScale) else {"counts_per_sqrt_watt": float(scale)}
     if board is not None or format == "dca1000":
         board = board_for_radar(radar, board)
@@ -241,7 +249,7 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
     with atomic_directory(out_dir, replace=replace) as tmp:
         if board is not None:
             cfg_text = write_ti_cfg(radar, board, frame_period=max(frame_period, radar.cpi_duration),
-                                    rx_gain_db=scale_info.get("rx_gain_db", 30.0))
+                                    rx_gain_db=scale_info.get("rx_gain_db", radar.rx_gain))
             (tmp / CFG_NAME).write_text(cfg_text)
         collected = []
         sink = open(tmp / BIN_NAME, "wb") if format == "dca1000" else None

@@ -31,8 +31,13 @@ with the firing order ``tx_order`` = the transmitter of chirps ``chirpStartIdx..
 (one transmitter per chirp: TDM-MIMO) and the element positions of the enabled receivers and
 transmitters taken from the board (:data:`BOARDS`, the layouts of the presets).
 
-What the ``.cfg`` does not hold (transmit power, noise figure, element pattern) comes from the
-board's preset. ``txOutPower`` (a back-off code, dB) lowers the board's transmit power.
+What the ``.cfg`` does not hold (transmit power, noise figure, element pattern, ADC full scale)
+comes from the board's preset. ``txOutPower`` (a back-off code, dB) lowers the board's transmit
+power. The receiver (:mod:`sionnafmcw.receiver.ti`): ``hpfCornerFreq1``/``hpfCornerFreq2`` (codes
+0-3) give the IF chain's two high-pass corners (with the complex-1x anti-alias filter),
+``rxGain`` the receiver gain (its bits 5:0, dB; TI's 68xx profiles set the RF gain target in bits
+7:6, e.g. 158 = 30 dB), ``adcCfg 2`` the 16-bit ADC, and the phase noise is the device data
+sheet's for the band the chirp sweeps.
 
 Commands that set up the demo's processing, monitoring or output (:data:`IGNORED_COMMANDS`,
 e.g. ``guiMonitor``, ``cfarCfg``) do not change the RF signal and are skipped (listed in
@@ -51,6 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from ..radar import RadarConfig, RadarConfigError, _ti_three_tx_layout
+from ..receiver import ti as ti_receiver
 
 
 class TiCfgError(RadarConfigError):
@@ -75,12 +81,15 @@ class Board:
         pattern are taken from it.
     design_frequency : float
         Frequency (Hz) the element spacings are half wavelengths of.
+    device : str
+        The radar device (its data sheet's receiver figures, :mod:`sionnafmcw.receiver.ti`).
     """
 
     name: str
     family: str
     preset: str
     design_frequency: float
+    device: str = ""
 
     def layout(self):
         """``(tx_positions [3,3], rx_positions [4,3])`` of all physical elements (m, radar frame)."""
@@ -89,9 +98,9 @@ class Board:
 
 #: The boards of the presets (:func:`sionnafmcw.radar._ti_three_tx_layout`).
 BOARDS = {
-    "awr1843boost": Board("awr1843boost", "xWR16xx", "ti-awr1843boost", 77e9),
-    "iwr6843isk": Board("iwr6843isk", "xWR16xx", "ti-iwr6843isk", 62e9),
-    "iwr1443boost": Board("iwr1443boost", "xWR14xx", "ti-iwr1443boost", 77e9),
+    "awr1843boost": Board("awr1843boost", "xWR16xx", "ti-awr1843boost", 77e9, "AWR1843"),
+    "iwr6843isk": Board("iwr6843isk", "xWR16xx", "ti-iwr6843isk", 62e9, "IWR6843"),
+    "iwr1443boost": Board("iwr1443boost", "xWR14xx", "ti-iwr1443boost", 77e9, "IWR1443"),
 }
 
 #: Commands of TI's demo .cfg files that do not change the transmitted or received RF signal
@@ -347,6 +356,15 @@ def radar_from_ti_cfg(cfg: TiCfg, board=None) -> RadarConfig:
     tx_power = preset.tx_power * 10.0 ** (-p["tx_out_power"] / 10.0)
     name = cfg.comments.get(_NAME_COMMENT, f"{board.name}-cfg")
     try:
+        chain = ti_receiver.if_chain(p["hpf1"], p["hpf2"])
+    except ValueError as err:
+        raise TiCfgError(f"{src}: profileCfg: {err}") from None
+    f_stop = p["start_freq_ghz"] * 1e9 + p["slope_mhz_us"] * 1e12 * p["ramp_end_us"] * 1e-6
+    try:
+        phase_noise = ti_receiver.phase_noise_table(board.device, p["start_freq_ghz"] * 1e9, f_stop)
+    except ValueError as err:
+        raise TiCfgError(f"{src}: profileCfg: {err}") from None
+    try:
         return RadarConfig(
             fc=p["start_freq_ghz"] * 1e9,
             slope=p["slope_mhz_us"] * 1e12,
@@ -363,6 +381,11 @@ def radar_from_ti_cfg(cfg: TiCfg, board=None) -> RadarConfig:
             noise_figure=preset.noise_figure,
             antenna_pattern=preset.antenna_pattern,
             name=name,
+            phase_noise=phase_noise,
+            if_filter=chain,
+            adc_bits=16,
+            adc_full_scale=preset.adc_full_scale,
+            rx_gain=float(int(p["rx_gain"]) & 0x3F),
         )
     except RadarConfigError as err:
         raise TiCfgError(f"{src}: profileCfg/frameCfg give an impossible radar: {err}") from None
@@ -392,7 +415,7 @@ def _match_rows(positions, candidates, what, board):
 
 
 def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_frames: int = 0,
-                 rx_gain_db: float = 30.0, ignored=None) -> str:
+                 rx_gain_db: float | None = None, ignored=None) -> str:
     """The TI mmWave SDK demo ``.cfg`` text of ``radar`` (inverse of :func:`read_ti_cfg`).
 
     Parameters
@@ -405,8 +428,8 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
         ``framePeriodicity`` (s); must hold the CPI.
     num_frames : int
         ``numFrames`` (0 = until ``sensorStop``).
-    rx_gain_db : float
-        ``rxGain`` of ``profileCfg`` (dB).
+    rx_gain_db : float, optional
+        ``rxGain`` of ``profileCfg`` (dB); default ``radar.rx_gain``.
     ignored : list of str, optional
         Extra (non-RF) command lines to append, e.g. ``["guiMonitor -1 1 1 0 0 0 1"]``.
 
@@ -414,8 +437,10 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
     -----
     The chirps ``0..M-1`` fire the transmitters in ``radar.tx_order``; ``txOutPower`` is the
     back-off (dB) of ``radar.tx_power`` below the board preset's (an error unless a whole number of
-    dB); ``txStartTime`` is TI's 1 us; the comments ``% sionnafmcw-board`` and ``% sionnafmcw-radar`` let
-    :func:`read_ti_cfg` find the board and name again.
+    dB); ``txStartTime`` is TI's 1 us; ``hpfCornerFreq1``/``hpfCornerFreq2`` are the codes of the
+    radar's two high-pass corners (0/0 without an IF chain; an error for corners TI does not offer);
+    ``adcCfg 2 1`` (16 bit: a radar with another ``adc_bits`` is refused); the comments
+    ``% sionnafmcw-board`` and ``% sionnafmcw-radar`` let :func:`read_ti_cfg` find the board and name again.
     """
     board = board_for_radar(radar, board)
     board_tx, board_rx = board.layout()
@@ -429,6 +454,14 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
         raise TiCfgError(f"RadarConfig.tx_power ({radar.tx_power * 1e3:.4g} mW) is not the {board.name}'s "
                          f"{preset.tx_power * 1e3:.4g} mW lowered by a whole number of dB (txOutPower back-off)")
 
+    try:
+        hpf1, hpf2 = ti_receiver.hpf_codes(radar.if_filter)
+    except ValueError as err:
+        raise TiCfgError(f"RadarConfig.if_filter: {err}; a .cfg can only select TI's corners") from None
+    if radar.adc_bits not in (None, 16):
+        raise TiCfgError(f"RadarConfig.adc_bits={radar.adc_bits}: this writer emits 16-bit ADC data (adcCfg 2 1) "
+                         "only; set adc_bits to 16 (or None)")
+    rx_gain_db = radar.rx_gain if rx_gain_db is None else rx_gain_db
     idle_us = (radar.chirp_interval - radar.ramp_end_time) * 1e6
     lines = [
         f"% TI mmWave SDK demo configuration written by sionnafmcw for {radar.name}",
@@ -440,10 +473,10 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
         f"channelCfg {sum(1 << i for i in rx_index)} {sum(1 << i for i in tx_index)} 0",
         "adcCfg 2 1",
         "adcbufCfg -1 0 1 1 1",
-        "profileCfg 0 {} {} {} {} {} 0 {} 1 {} {} 0 0 {}".format(
+        "profileCfg 0 {} {} {} {} {} 0 {} 1 {} {} {} {} {}".format(
             _num(radar.fc / 1e9, 9), _num(idle_us, 4), _num(radar.adc_start_time * 1e6, 4),
             _num(radar.ramp_end_time * 1e6, 4), backoff_code, _num(radar.slope / 1e12, 6),
-            radar.num_samples, _num(radar.fs / 1e3, 3), _num(rx_gain_db, 3)),
+            radar.num_samples, _num(radar.fs / 1e3, 3), hpf1, hpf2, _num(rx_gain_db, 3)),
     ]
     for slot, tx in enumerate(radar.tx_order):
         lines.append(f"chirpCfg {slot} {slot} 0 0 0 0 0 {1 << tx_index[tx]}")

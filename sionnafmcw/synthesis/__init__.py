@@ -38,6 +38,8 @@ frame time), so the first sum of one frame is the first sum of every frame with 
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 
 from .accuracy import NOISE_MARGIN_DB, UPSTREAM_SHARE, SynthesisAccuracy, noise_error_budget
@@ -48,10 +50,15 @@ from .nufft import beat_nufft, synthesis_accuracy
 METHODS = ("nufft", "direct")
 
 
+class AdcClippingWarning(UserWarning):
+    """The ADC in the cube clipped I/Q values (``RadarConfig.adc_bits``): the echoes exceed its full scale."""
+
+
 def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=None,
                method: str = "nufft", leakage_db: float | None = None,
                noise_margin_db: float = NOISE_MARGIN_DB, max_error: float | None = None,
-               static_cache: dict | None = None) -> np.ndarray:
+               static_cache: dict | None = None, phase_noise: bool | None = None,
+               stats: dict | None = None) -> np.ndarray:
     r"""IF cube ``[chirp, tx, rx, sample]`` (complex64, sqrt(W), tx in physical order) of one CPI.
 
     Parameters
@@ -63,9 +70,10 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
         CPI start :math:`t_n` (s) to which ``echoes`` refer; the chirp timing is relative to it,
         so the cube itself depends only on the echoes.
     noise : bool
-        Add receiver thermal noise :math:`k T_0 F F_s` per sample.
+        Add receiver thermal noise :math:`k T_0 F F_s` per sample (coloured by the radar's IF chain,
+        :func:`sionnafmcw.receiver.shape_noise`).
     rng : numpy.random.Generator or int, optional
-        Noise source (a seed gives a reproducible cube).
+        Noise source (a seed gives a reproducible cube); thermal noise first, then phase noise.
     method : {"nufft", "direct"}
     leakage_db : float, optional
         Add direct Tx-Rx coupling of this power level (dB) to every channel
@@ -81,11 +89,18 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
     static_cache : dict, optional
         Reuse the noise-free cube of the echoes' static block (``echoes.static_key`` not None,
         ``static_count`` > 0, ``method="nufft"``) across calls: ``static_cache[static_key]`` holds
-        ``(radar, budget, cube)`` (the static sum's budget, below) and is reused when the radar and
-        the budget are the same, else
-        computed with :func:`beat_nufft` and stored; the dict keeps one entry (a new key replaces
+        ``(radar, budget, cube, weighted cube or None)`` (the static sum's budget, below; the
+        delay-weighted cube when phase noise needs it) and is reused when the radar and the budget
+        are the same (and the weighted cube is there when needed), else computed with
+        :func:`beat_nufft` and stored; the dict keeps one entry (a new key replaces
         the old one), so it costs one cube of memory. Ignored for ``method="direct"`` (exact
         anyway) and for echoes without a static block.
+    phase_noise : bool, optional
+        Apply the radar's phase noise (``radar.phase_noise``; nothing when it is None). Default: as
+        ``noise`` (a noise-free cube is free of every random effect).
+    stats : dict, optional
+        Filled with ``adc_clipped`` (I/Q values the ADC clipped, 0 without an ADC) and
+        ``adc_values`` (I/Q values in the cube). Clipping also raises an :class:`AdcClippingWarning`.
 
     Notes
     -----
@@ -103,6 +118,8 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
     phases, which are 0 for the static block), and the strength sums of :math:`S` and :math:`D`
     add up to the whole's, so every channel keeps the bound of the whole echoes.
     """
+    from .. import receiver
+
     if echoes.num_tx != radar.num_tx or echoes.num_rx != radar.num_rx:
         raise ValueError(
             f"synthesize: echoes are for {echoes.num_tx} Tx x {echoes.num_rx} Rx elements but the radar "
@@ -114,22 +131,55 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
         echoes = Echoes.concatenate([echoes, Echoes.leakage(radar, leakage_db)])
     if not np.isfinite(frame_time):
         raise ValueError(f"synthesize: frame_time must be finite, got {frame_time!r}")
+    with_phase_noise = radar.phase_noise is not None and (noise if phase_noise is None else bool(phase_noise))
+    echoes = receiver.filter_echoes(echoes, radar)
+    weighted = None
     if method == "nufft":
         if max_error is None and noise:
             max_error = (1.0 - UPSTREAM_SHARE) * noise_error_budget(radar, noise_margin_db)
         if static_cache is not None and echoes.static_key is not None and echoes.static_count > 0:
-            cube = _static_and_dynamic(echoes, radar, max_error, static_cache)
+            cube, weighted = _static_and_dynamic(echoes, radar, max_error, static_cache, with_phase_noise)
+        elif with_phase_noise:
+            cube, weighted = beat_nufft(echoes, radar, max_error=max_error, weights=_delay_weights(echoes, radar))
         else:
             cube = beat_nufft(echoes, radar, max_error=max_error)
     elif method == "direct":
-        cube = beat_direct(echoes, radar)
+        if with_phase_noise:
+            cube, weighted = beat_direct(echoes, radar, weights=_delay_weights(echoes, radar))
+        else:
+            cube = beat_direct(echoes, radar)
     else:
         raise ValueError(f"synthesize: method={method!r} is unknown; choose one of {', '.join(METHODS)}")
     cube = cube.astype(np.complex64)  # a copy: the cached static cube is never changed
-    if noise:
+    if noise or with_phase_noise:
         rng = np.random.default_rng(rng)
-        cube += thermal_noise(cube.shape, radar, rng)
+    if noise:
+        cube += receiver.shape_noise(thermal_noise(cube.shape, radar, rng), radar)
+    if with_phase_noise:
+        frequency = receiver.phase_noise.frequency_noise(radar, rng)
+        cube += receiver.phase_noise.term(frequency, weighted).astype(np.complex64)
+    if radar.iq_imbalance is not None:
+        cube = receiver.iq_imbalance.apply(cube, radar.iq_imbalance)
+    clipped = 0
+    if radar.adc_bits is not None:
+        cube, clipped = receiver.adc.quantise(cube, radar)
+        if clipped:
+            warnings.warn(f"synthesize: the {radar.adc_bits}-bit ADC of radar {radar.name!r} clipped {clipped} of "
+                          f"{2 * cube.size} I/Q values ({100 * clipped / (2 * cube.size):.3g} %): the echoes exceed "
+                          f"its full scale ({radar.adc_full_scale:.3g} W at {radar.rx_gain:g} dB gain); lower "
+                          "rx_gain or raise adc_full_scale", AdcClippingWarning, stacklevel=2)
+    if stats is not None:
+        stats["adc_clipped"] = int(clipped)
+        stats["adc_values"] = int(2 * cube.size)
     return cube
+
+
+def _delay_weights(echoes, radar) -> np.ndarray:
+    """The phase-noise weights of ``echoes``: their delays at the CPI centre
+    (:mod:`sionnafmcw.receiver.phase_noise`)."""
+    from ..receiver.phase_noise import delay_weights
+
+    return delay_weights(echoes.tau, echoes.doppler, radar)
 
 
 def _contributions(echoes, start: int, stop: int | None = None):
@@ -145,23 +195,32 @@ def _contributions(echoes, start: int, stop: int | None = None):
 STATIC_BUDGET_SHARE = 0.1
 
 
-def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: dict) -> np.ndarray:
-    """Noise-free cube :math:`x_S + x_D`: the static block's from ``static_cache`` (or computed and
-    stored), the rest by :func:`beat_nufft`, the budget split by :data:`STATIC_BUDGET_SHARE`
-    (see :func:`synthesize`)."""
+def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: dict, weighted: bool = False):
+    """Noise-free cube :math:`x_S + x_D` (and the delay-weighted cube when ``weighted``, else None): the
+    static block's from ``static_cache`` (or computed and stored), the rest by :func:`beat_nufft`, the
+    budget split by :data:`STATIC_BUDGET_SHARE` (see :func:`synthesize`)."""
     static_error = None if max_error is None else STATIC_BUDGET_SHARE * max_error
     dynamic_error = None if max_error is None else (1.0 - STATIC_BUDGET_SHARE) * max_error
     entry = static_cache.get(echoes.static_key)
-    if entry is None or entry[1] != static_error or (entry[0] is not radar and entry[0] != radar):
+    if (entry is None or entry[1] != static_error or (entry[0] is not radar and entry[0] != radar)
+            or (weighted and entry[3] is None)):
         static_cache.clear()  # one cube of memory
-        cube = beat_nufft(_contributions(echoes, 0, echoes.static_count), radar, max_error=static_error)
-        entry = static_cache[echoes.static_key] = (radar, static_error, cube)
-    static = entry[2]
+        part = _contributions(echoes, 0, echoes.static_count)
+        if weighted:
+            cube, cube_w = beat_nufft(part, radar, max_error=static_error, weights=_delay_weights(part, radar))
+        else:
+            cube, cube_w = beat_nufft(part, radar, max_error=static_error), None
+        entry = static_cache[echoes.static_key] = (radar, static_error, cube, cube_w)
+    static, static_w = entry[2], entry[3]
     if echoes.static_count == echoes.num_contributions:
-        return static
-    dynamic = beat_nufft(_contributions(echoes, echoes.static_count), radar, max_error=dynamic_error)
-    return static + dynamic
+        return static, (static_w if weighted else None)
+    part = _contributions(echoes, echoes.static_count)
+    if weighted:
+        dynamic, dynamic_w = beat_nufft(part, radar, max_error=dynamic_error, weights=_delay_weights(part, radar))
+        return static + dynamic, static_w + dynamic_w
+    return static + beat_nufft(part, radar, max_error=dynamic_error), None
 
 
-__all__ = ["METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "UPSTREAM_SHARE", "SynthesisAccuracy", "beat_direct",
-           "beat_nufft", "noise_error_budget", "synthesis_accuracy", "synthesize", "thermal_noise"]
+__all__ = ["AdcClippingWarning", "METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "UPSTREAM_SHARE",
+           "SynthesisAccuracy", "beat_direct", "beat_nufft", "noise_error_budget", "synthesis_accuracy", "synthesize",
+           "thermal_noise"]

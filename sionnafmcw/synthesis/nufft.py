@@ -94,6 +94,9 @@ CHANNELS_PER_PLAN = 3
 SHARED_PLAN_MAX_SOURCES = 15_000
 #: finufft fine-grid upsampling factor at tolerances >= 1e-6 (below, finufft's own choice).
 UPSAMPFAC = 1.25
+#: Largest residual phase bound (rad) at which a weighted sum (``beat_nufft(weights=...)``) drops its
+#: Taylor terms: its relative error is then below this (-40 dB).
+WEIGHTED_RESIDUAL_MAX = 0.01
 
 
 @dataclass
@@ -107,6 +110,7 @@ class _Channel:
     residual: tuple        # (delta, rho, K_l), cycles
     phases: np.ndarray     # [3, P]: 2 pi |r_i| max|b_i| (rad); their sum bounds 2 pi |R_p| on the grid
     amplitude: np.ndarray  # |a_p|
+    weight: np.ndarray | None = None   # real per-contribution weights of a second sum (``weights``), or None
 
     def strength(self, dtype) -> np.ndarray:
         r""":math:`g_p = \bar a_p e^{j\,\mathrm{phase}}` in the transform's precision: in complex64 the
@@ -150,8 +154,9 @@ class _Grid:
         self.basis_max = tuple(float(np.abs(b).max()) for b in self.basis)
 
 
-def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
-    """The live contributions (non-zero gain) of every channel as type-3 sources, strengths and residuals."""
+def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
+    """The live contributions (non-zero gain) of every channel as type-3 sources, strengths and residuals;
+    ``weights`` (``[M, N, P]`` real, optional) are kept per channel for the weighted second sum."""
     Ns = radar.num_samples
     slot = radar.tx_slot()
     basis_max = 2 * np.pi * np.asarray(grid.basis_max)
@@ -182,7 +187,8 @@ def _channels(echoes, radar, grid: _Grid) -> list[_Channel]:
                 phase += np.pi * odd
             x = poly.a - wraps
             x *= 2 * np.pi
-            out.append(_Channel(m, n, x, 2 * np.pi * poly.b, a, phase, residual, phases, np.abs(a)))
+            weight = None if weights is None else np.asarray(weights[m, n, live], dtype=float)
+            out.append(_Channel(m, n, x, 2 * np.pi * poly.b, a, phase, residual, phases, np.abs(a), weight))
     return out
 
 
@@ -210,9 +216,9 @@ def _fit_keystone(group: list[_Channel], grid: _Grid) -> float:
     return shift
 
 
-def _plans(echoes, radar, grid: _Grid, channels_per_plan: int | None):
+def _plans(echoes, radar, grid: _Grid, channels_per_plan: int | None, weights=None):
     """The live channels, their groups (one finufft plan each) and each group's keystone shift."""
-    channels = _channels(echoes, radar, grid)
+    channels = _channels(echoes, radar, grid, weights)
     if channels_per_plan is None:
         largest = max((c.x.size for c in channels), default=0)
         channels_per_plan = CHANNELS_PER_PLAN if largest <= SHARED_PLAN_MAX_SOURCES else 1
@@ -237,8 +243,8 @@ def _accuracy(channels, radar, max_error, nufft_tol, taylor_tol) -> SynthesisAcc
 def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUFFT_TOL,
                taylor_tol: float = TAYLOR_TOL, max_error: float | None = None,
                channels_per_plan: int | None = None, upsampfac: float | None = None,
-               precision: str | None = None) -> np.ndarray:
-    """Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
+               precision: str | None = None, weights: np.ndarray | None = None):
+    r"""Noise-free beat cube ``[chirp, tx, rx, sample]`` by type-3 NUFFT.
 
     Parameters
     ----------
@@ -253,23 +259,42 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Threads (default: CPU count, at most one per plan).
     precision : {"complex64", "complex128"}, optional
         Override the precision chosen from the budget (for measurements of the error floor).
+    weights : ndarray, optional
+        Real weights ``[M, N, P]``, one per contribution: also return the sum with every gain
+        multiplied by its weight (the delays, for phase noise:
+        :mod:`sionnafmcw.receiver.phase_noise`): more strength vectors of the same plans. With the same
+        Taylor terms its error bound would be the plain sum's scaled by the largest weight; where
+        every contribution's residual phase bound :math:`2\pi|R_p|` on the grid (the sum of its
+        ``phases``) is below :data:`WEIGHTED_RESIDUAL_MAX` the weighted sum keeps only the constant
+        term, an error of at most that fraction of each weighted strength (for phase noise: a term
+        40 dB below the phase-noise term itself, which is 40 dB or more below its carrier).
 
-    Returns complex64 when the budget allows single precision, complex128 otherwise.
+    Returns
+    -------
+    ndarray or tuple
+        The cube, complex64 when the budget allows single precision, complex128 otherwise; with
+        ``weights`` the pair of the cube and the weighted cube.
     """
     if channels_per_plan is not None and channels_per_plan < 1:
         raise ValueError(f"beat_nufft: channels_per_plan must be >= 1, got {channels_per_plan!r}")
     L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
     grid = _Grid(radar)
-    channels, groups, shifts = _plans(echoes, radar, grid, channels_per_plan)
+    channels, groups, shifts = _plans(echoes, radar, grid, channels_per_plan, weights)
     accuracy = _accuracy(channels, radar, max_error, nufft_tol, taylor_tol)
     dtype = np.dtype(precision or accuracy.dtype)
     if upsampfac is None:  # 0: finufft's own choice (as before the noise budget)
         upsampfac = UPSAMPFAC if accuracy.nufft_tol >= 1e-6 else 0.0
     real = np.float32 if dtype == np.complex64 else np.float64
-    out = np.zeros((L, M, N, Ns), dtype=dtype)
+    sums = 1 if weights is None else 2          # outputs per channel: the sum, and the weighted sum
+    out = np.zeros((sums, L, M, N, Ns), dtype=dtype)
     if not channels:
-        return out
+        return out[0] if weights is None else (out[0], out[1])
     terms = list(accuracy.terms)
+    weighted_terms = 0 if weights is None else len(terms)
+    largest_residual = max(float(c.phases.sum(axis=0).max(initial=0.0)) for c in channels)
+    if weights is not None and largest_residual < WEIGHTED_RESIDUAL_MAX:
+        weighted_terms = 1
+    rows = len(terms) + weighted_terms          # strength vectors per channel
     basis_terms = []
     for term in terms:
         b = np.ones((L, Ns))
@@ -284,7 +309,7 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         sizes = [c.x.size for c in group]
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         # the last columns: two sources of zero strength at the corners of the band (ANCHORS)
-        vectors = np.zeros((len(group) * len(terms), offsets[-1] + len(ANCHORS)), dtype=dtype)
+        vectors = np.zeros((len(group) * rows, offsets[-1] + len(ANCHORS)), dtype=dtype)
         for j, c in enumerate(group):
             strength = c.strength(dtype)
             strength *= real(scale)
@@ -293,7 +318,9 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                 for i, power in enumerate(term):
                     if power:
                         w = w * ((2j * np.pi * c.residual[i]) ** power / factorial(power)).astype(dtype)
-                vectors[j * len(terms) + t, offsets[j]:offsets[j + 1]] = w
+                vectors[j * rows + t, offsets[j]:offsets[j + 1]] = w
+                if t < weighted_terms:
+                    vectors[j * rows + len(terms) + t, offsets[j]:offsets[j + 1]] = w * c.weight.astype(real)
         plan = finufft.Plan(3, 2, n_trans=vectors.shape[0], eps=accuracy.nufft_tol, isign=1, dtype=dtype.name,
                             nthreads=1, upsampfac=upsampfac, showwarn=0)
         target_y = grid.y if shift == 0.0 else grid.y + shift * grid.basis[0].ravel()   # the plan's keystone
@@ -301,13 +328,14 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
                     np.concatenate([c.y for c in group] + [ANCHORS[:, 1]]).astype(real), None, target_x,
                     target_y.astype(real))
         values = plan.execute(vectors if vectors.shape[0] > 1 else vectors[0])
-        values = np.reshape(values, (len(group), len(terms), L, Ns))
+        values = np.reshape(values, (len(group), rows, L, Ns))
         cubes = []
         for j, c in enumerate(group):
-            cube = values[j, 0].copy()  # terms[0] is the constant monomial (basis 1)
-            for t in range(1, len(terms)):
-                cube += values[j, t] * basis_terms[t]
-            cubes.append((c.m, c.n, cube))
+            for o, (first, count) in enumerate(((0, len(terms)), (len(terms), weighted_terms))[:sums]):
+                cube = values[j, first].copy()  # terms[0] is the constant monomial (basis 1)
+                for t in range(1, count):
+                    cube += values[j, first + t] * basis_terms[t]
+                cubes.append((o, c.m, c.n, cube))
         return cubes
 
     workers = workers or min(len(groups), os.cpu_count() or 1)
@@ -317,10 +345,10 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     else:
         results = [run(g, s) for g, s in zip(groups, shifts)]
     for cubes in results:
-        for m, n, cube in cubes:
-            out[:, m, n, :] = cube
-    return out
+        for o, m, n, cube in cubes:
+            out[o, :, m, n, :] = cube
+    return out[0] if weights is None else (out[0], out[1])
 
 
-__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC", "beat_nufft",
-           "synthesis_accuracy", "taylor_order"]
+__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC",
+           "WEIGHTED_RESIDUAL_MAX", "beat_nufft", "synthesis_accuracy", "taylor_order"]

@@ -1,0 +1,67 @@
+r"""The ADC in the cube: quantisation and clipping on the DCA1000 export's scale.
+
+The cube is the IF signal in :math:`\sqrt{\mathrm W}` at the receiver input. A board's ADC sees
+it through the receiver gain :math:`G` (``RadarConfig.rx_gain``, dB, TI's ``rxGain``) against
+its full scale :math:`P_{FS}` (``RadarConfig.adc_full_scale``, W: the power at the ADC input of a
+complex tone whose I and Q just reach full scale). The DCA1000 export maps the cube to 16-bit
+words with exactly this scale (:class:`sionnafmcw.io.dca1000.AdcScale`):
+
+.. math:: c = 10^{G/20}\,\frac{2^{15}-1}{\sqrt{P_{FS}}}\quad\text{words per }\sqrt{\mathrm W}.
+
+An ADC of :math:`B \le 16` bits (``RadarConfig.adc_bits``) has the same full scale and a step of
+:math:`\Delta = 2^{16-B}` words (the 16-bit word's full scale kept, the resolution coarser; the
+TI presets stream 16-bit words): I and Q are each rounded to the nearest step and clipped to
+:math:`[-2^{B-1}, 2^{B-1}-1]` steps, then divided by :math:`c` again, so the cube stays in
+:math:`\sqrt{\mathrm W}`:
+
+.. math:: x_q = \frac{\Delta}{c}\,\mathrm{clip}\!\left(\mathrm{rint}\!\left(\frac{c\,x}{\Delta}\right),
+          -2^{B-1}, 2^{B-1}-1\right) \quad\text{(I and Q)}.
+
+With :math:`B = 16` the DCA1000 export of such a cube with the radar's own scale
+(:func:`export_scale`) reproduces its words exactly and clips nothing more. Uniform quantisation
+adds :math:`\Delta^2/12` per I and per Q (in words², when the signal spans many steps); the
+clipped I/Q values are counted (:func:`quantise`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+MAX_BITS = 16
+MIN_BITS = 2
+
+
+def export_scale(radar):
+    """The :class:`~sionnafmcw.io.dca1000.AdcScale` of ``radar`` (its ``rx_gain`` and ``adc_full_scale``)."""
+    from ..io.dca1000 import AdcScale
+
+    return AdcScale(rx_gain_db=float(radar.rx_gain), adc_full_scale_dbm=10.0 * math.log10(radar.adc_full_scale / 1e-3))
+
+
+def words_per_sqrt_watt(radar) -> float:
+    """:math:`c`, 16-bit words per :math:`\\sqrt{\\mathrm W}` (the DCA1000 export's scale)."""
+    return export_scale(radar).counts_per_sqrt_watt
+
+
+def step(radar) -> float:
+    """The ADC step :math:`\\Delta/c` in :math:`\\sqrt{\\mathrm W}`."""
+    return 2.0 ** (MAX_BITS - radar.adc_bits) / words_per_sqrt_watt(radar)
+
+
+def quantise(cube: np.ndarray, radar) -> tuple[np.ndarray, int]:
+    """``(quantised cube, clipped I/Q values)`` (module docstring); the cube's dtype is kept."""
+    lsb = step(radar)
+    top = 2 ** (radar.adc_bits - 1)
+    out = np.empty_like(cube)
+    clipped = 0
+    for part, target in ((cube.real, out.real), (cube.imag, out.imag)):
+        codes = np.rint(part.astype(np.float64) / lsb)
+        clipped += int(np.count_nonzero((codes > top - 1) | (codes < -top)))
+        np.clip(codes, -top, top - 1, out=codes)
+        target[...] = codes * lsb
+    return out, clipped
+
+
+__all__ = ["MAX_BITS", "MIN_BITS", "export_scale", "quantise", "step", "words_per_sqrt_watt"]
