@@ -14,8 +14,8 @@ import pytest
 
 import sionnafmcw.synthesis as synthesis
 from sionnafmcw import Echoes, RadarConfig, synthesize
-from sionnafmcw.synthesis import (STATIC_BUDGET_SHARE, beat_direct, noise_error_budget, synthesis_accuracy,
-                                  thermal_noise)
+from sionnafmcw.synthesis import (STATIC_BUDGET_SHARE, UPSTREAM_SHARE, beat_direct, noise_error_budget,
+                                  synthesis_accuracy, thermal_noise)
 
 FLOAT32_ROUNDING = 2.0 ** -24
 
@@ -93,9 +93,10 @@ def test_cached_cube_is_the_sum_of_both_parts_noise_off(radar, calls):
 
 def test_cached_cube_meets_the_noise_budget_with_the_same_noise(radar, calls):
     echoes = frame(radar, room(radar), seed=3)
-    budget = noise_error_budget(radar)
+    # the synthesis keeps 1 - UPSTREAM_SHARE of the noise budget (the engines' PO merge the rest)
+    budget = (1 - UPSTREAM_SHARE) * noise_error_budget(radar)
     cached = synthesize(echoes, radar, noise=True, rng=5, static_cache={})
-    # the static part gets a tenth of the budget, the per-frame part the rest: the sum stays within it
+    # the static part gets a tenth of that, the per-frame part the rest: the sum stays within it
     assert calls == pytest.approx([STATIC_BUDGET_SHARE * budget, (1 - STATIC_BUDGET_SHARE) * budget], rel=1e-12)
     assert split_bound(echoes, radar, max_error=budget) <= budget * (1 + 1e-9)
     whole = synthesize(echoes, radar, noise=True, rng=5)
