@@ -465,15 +465,11 @@ class RadarConfig:
     @classmethod
     def from_ti_cfg(cls, path_or_text, board=None) -> "RadarConfig":
         """The radar of a TI mmWave SDK / demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.read_ti_cfg`)."""
-        from .io.ti_cfg import read_ti_cfg
-
-        return read_ti_cfg(path_or_text, board=board)
+        return format_function(".cfg", "read")(path_or_text, board=board)
 
     def to_ti_cfg(self, board=None, **options) -> str:
         """This radar as a TI mmWave SDK demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.write_ti_cfg`)."""
-        from .io.ti_cfg import write_ti_cfg
-
-        return write_ti_cfg(self, board=board, **options)
+        return format_function(".cfg", "write")(self, board=board, **options)
 
     @staticmethod
     def presets() -> list[str]:
@@ -577,10 +573,28 @@ def _from_file(path: Path) -> RadarConfig:
         raise RadarConfigError(f"{path}: {err}") from None
 
 
-def _from_ti_cfg(path: Path) -> RadarConfig:
-    """A TI mmWave SDK ``.cfg`` file through :func:`sionnafmcw.io.ti_cfg.read_ti_cfg` (imported lazily)."""
+#: Readers and writers of radar files in other formats, by file suffix: ``"module:function"``
+#: imported on first use (as :mod:`sionnafmcw.engines` registers its engines), so that this module
+#: imports none of them -- they import :class:`RadarConfig` (no import circle).
+FORMATS = {".cfg": {"read": "sionnafmcw.io.ti_cfg:read_ti_cfg", "write": "sionnafmcw.io.ti_cfg:write_ti_cfg"}}
+
+
+def format_function(suffix: str, job: str):
+    """The ``job`` (``"read"`` or ``"write"``) function of the radar format ``suffix`` (:data:`FORMATS`)."""
+    import importlib
+
     try:
-        from .io.ti_cfg import read_ti_cfg
+        module, _, name = FORMATS[suffix][job].partition(":")
+    except KeyError:
+        raise RadarConfigError(f"no radar {job}er for {suffix!r} files; known formats: "
+                               f"{', '.join(FORMATS) or 'none'}") from None
+    return getattr(importlib.import_module(module), name)
+
+
+def _from_ti_cfg(path: Path) -> RadarConfig:
+    """A TI mmWave SDK ``.cfg`` file through :func:`sionnafmcw.io.ti_cfg.read_ti_cfg` (:data:`FORMATS`)."""
+    try:
+        read_ti_cfg = format_function(".cfg", "read")
     except ImportError as err:
         raise RadarConfigError(f"{path}: reading a TI mmWave .cfg file needs sionnafmcw.io.ti_cfg, which cannot be "
                                f"imported ({err}); give a preset or a .json radar file instead") from None

@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from ..radar import RadarConfig
+from ..receiver.adc import AdcScale, export_scale
 from .ti_cfg import board_for_radar, board_of, parse_ti_cfg, radar_from_ti_cfg, write_ti_cfg
 
 FORMAT = "sionnafmcw-dca1000/1"
@@ -60,7 +61,6 @@ BIN_NAME = "adc_data.bin"
 NPZ_NAME = "adc_data.npz"
 CFG_NAME = "capture.cfg"
 SIDECAR_NAME = "capture.json"
-FULL_SCALE_COUNTS = 2 ** 15 - 1
 FAMILIES = ("xWR14xx", "xWR16xx")
 
 
@@ -69,33 +69,7 @@ class CaptureError(ValueError):
 
 
 # ---------------------------------------------------------------------------------------- scaling
-@dataclass(frozen=True)
-class AdcScale:
-    """Receiver gain and ADC full scale of the export (see the module docstring).
-
-    Parameters
-    ----------
-    rx_gain_db : float
-        Receiver gain :math:`G` from the antenna port to the ADC (dB); default 30 dB, the
-        ``rxGain`` of the TI presets' ``profileCfg``.
-    adc_full_scale_dbm : float
-        :math:`P_{FS}` (dBm): power at the ADC input of a full-scale complex tone. Default 0 dBm
-        (an assumption: TI publishes no single figure); with the defaults the receiver noise of the
-        TI presets (-92 dBm per sample at 5.2 Msps, 15 dB noise figure) is about 27 counts rms.
-    """
-
-    rx_gain_db: float = 30.0
-    adc_full_scale_dbm: float = 0.0
-
-    @property
-    def counts_per_sqrt_watt(self) -> float:
-        r""":math:`10^{G/20} (2^{15}-1) / \sqrt{P_{FS}}` (counts per :math:`\sqrt{\mathrm{W}}`)."""
-        full_scale_watt = 10.0 ** ((self.adc_full_scale_dbm - 30.0) / 10.0)
-        return 10.0 ** (self.rx_gain_db / 20.0) * FULL_SCALE_COUNTS / np.sqrt(full_scale_watt)
-
-    def to_dict(self) -> dict:
-        return {"rx_gain_db": self.rx_gain_db, "adc_full_scale_dbm": self.adc_full_scale_dbm,
-                "counts_per_sqrt_watt": self.counts_per_sqrt_watt}
+# the scale of the export is the ADC's own (:class:`sionnafmcw.receiver.adc.AdcScale`)
 
 
 def quantise(values: np.ndarray, scale: AdcScale | float) -> tuple[np.ndarray, int]:
@@ -229,8 +203,6 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
     if format not in ("dca1000", "npz"):
         raise CaptureError(f"unknown capture format {format!r}; choose 'dca1000' or 'npz'")
     if scale is None:
-        from ..receiver.adc import export_scale
-
         scale = export_scale(radar)
     scale_info = scale.to_dict() if isinstance(scale, AdcScale) else {"counts_per_sqrt_watt": float(scale)}
     if board is not None or format == "dca1000":

@@ -4,7 +4,7 @@ The cube is the IF signal in :math:`\sqrt{\mathrm W}` at the receiver input. A b
 it through the receiver gain :math:`G` (``RadarConfig.rx_gain``, dB, TI's ``rxGain``) against
 its full scale :math:`P_{FS}` (``RadarConfig.adc_full_scale``, W: the power at the ADC input of a
 complex tone whose I and Q just reach full scale). The DCA1000 export maps the cube to 16-bit
-words with exactly this scale (:class:`sionnafmcw.io.dca1000.AdcScale`):
+words with exactly this scale (:class:`AdcScale`):
 
 .. math:: c = 10^{G/20}\,\frac{2^{15}-1}{\sqrt{P_{FS}}}\quad\text{words per }\sqrt{\mathrm W}.
 
@@ -26,17 +26,48 @@ clipped I/Q values are counted (:func:`quantise`).
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 
 MAX_BITS = 16
 MIN_BITS = 2
+#: The largest 16-bit word (the DCA1000 export's full scale).
+FULL_SCALE_COUNTS = 2 ** 15 - 1
+
+
+@dataclass(frozen=True)
+class AdcScale:
+    """Receiver gain and ADC full scale: the scale of the ADC in the cube and of the DCA1000 export
+    (:mod:`sionnafmcw.io.dca1000`, whose module docstring derives it).
+
+    Parameters
+    ----------
+    rx_gain_db : float
+        Receiver gain :math:`G` from the antenna port to the ADC (dB); default 30 dB, the
+        ``rxGain`` of the TI presets' ``profileCfg``.
+    adc_full_scale_dbm : float
+        :math:`P_{FS}` (dBm): power at the ADC input of a full-scale complex tone. Default 0 dBm
+        (an assumption: TI publishes no single figure); with the defaults the receiver noise of the
+        TI presets (-92 dBm per sample at 5.2 Msps, 15 dB noise figure) is about 27 counts rms.
+    """
+
+    rx_gain_db: float = 30.0
+    adc_full_scale_dbm: float = 0.0
+
+    @property
+    def counts_per_sqrt_watt(self) -> float:
+        r""":math:`10^{G/20} (2^{15}-1) / \sqrt{P_{FS}}` (counts per :math:`\sqrt{\mathrm{W}}`)."""
+        full_scale_watt = 10.0 ** ((self.adc_full_scale_dbm - 30.0) / 10.0)
+        return 10.0 ** (self.rx_gain_db / 20.0) * FULL_SCALE_COUNTS / np.sqrt(full_scale_watt)
+
+    def to_dict(self) -> dict:
+        return {"rx_gain_db": self.rx_gain_db, "adc_full_scale_dbm": self.adc_full_scale_dbm,
+                "counts_per_sqrt_watt": self.counts_per_sqrt_watt}
 
 
 def export_scale(radar):
-    """The :class:`~sionnafmcw.io.dca1000.AdcScale` of ``radar`` (its ``rx_gain`` and ``adc_full_scale``)."""
-    from ..io.dca1000 import AdcScale
-
+    """The :class:`AdcScale` of ``radar`` (its ``rx_gain`` and ``adc_full_scale``)."""
     return AdcScale(rx_gain_db=float(radar.rx_gain), adc_full_scale_dbm=10.0 * math.log10(radar.adc_full_scale / 1e-3))
 
 
@@ -64,4 +95,5 @@ def quantise(cube: np.ndarray, radar) -> tuple[np.ndarray, int]:
     return out, clipped
 
 
-__all__ = ["MAX_BITS", "MIN_BITS", "export_scale", "quantise", "step", "words_per_sqrt_watt"]
+__all__ = ["AdcScale", "FULL_SCALE_COUNTS", "MAX_BITS", "MIN_BITS", "export_scale", "quantise", "step",
+           "words_per_sqrt_watt"]
