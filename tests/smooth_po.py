@@ -12,14 +12,18 @@ quadrature (every facet split into :math:`s^2` congruent cells of edge at most `
 7-point degree-5 Gauss rule in each, as ``tests/po_quadrature.py``), so what it measures is the
 *geometry* a mesh gives the PO integral, free of the render's pixel sampling. Applied to the
 input mesh it shows today's error; applied to :func:`sionnafmcw.smooth_surface.pn_refine`'s mesh,
-what the refinement leaves.
+what the refinement leaves -- with the samples on its flat sub-facets (``samples="flat"``) or moved
+onto the smooth surface at their parameters (``samples="surface"``, :func:`refined_po_channels`).
 
-Meshes: :func:`icosphere` (exact radial normals by default), :func:`cylinder` (24-sided prism with
-flat caps: radial normals on the side, axial on the caps, a crease at each rim), the walking
-body's segments refined in their own frames and posed (:func:`refined_body_mesh`), with the
-normals of the analytic segment shapes (:func:`analytic_segment_normals`) or the coarse mesh's
-area-weighted vertex normals. Radar: ``walk-77ghz``'s element positions with the radar at
-:math:`(-d, 0, 0)` looking along +x at the target centred on the origin (:func:`walk_elements`).
+Meshes: :func:`icosphere` and :func:`cylinder` (24-sided prism with flat caps: radial normals on
+the side, axial on the caps, a crease at each rim). The walking body: its segments refined in
+their own frames (:func:`refined_segments`, with the normals of the analytic segment shapes,
+:func:`analytic_segment_normals`, or the coarse mesh's area-weighted vertex normals), posed and
+rendered exactly as ``tests/body_po.py`` does (:func:`body_rcs`), the hits optionally moved onto
+the refined smooth surfaces (:func:`refined_surface`) or onto the exact shapes
+(:func:`analytic_surface`: the reference body). Radar: ``walk-77ghz``'s element positions with the
+radar at :math:`(-d, 0, 0)` looking along +x at the target centred on the origin
+(:func:`walk_elements`).
 """
 
 from __future__ import annotations
