@@ -59,6 +59,12 @@ def _concatenate_labels(parts: list[np.ndarray]) -> np.ndarray:
     return np.concatenate(parts, axis=2)
 
 
+#: The per-contribution arrays ``[num_tx, num_rx, num_contributions]`` of :class:`Echoes`.
+CONTRIBUTION_FIELDS = ("a", "tau", "doppler")
+#: What :meth:`Echoes.concatenate` joins on first use: the arrays and the labels.
+JOINED_FIELDS = (*CONTRIBUTION_FIELDS, "labels")
+
+
 def target_direction(azimuth, elevation) -> np.ndarray:
     """Unit vectors ``[..., 3]`` in the radar frame; azimuth from +x towards +y, elevation towards +z (rad)."""
     az = np.asarray(azimuth, dtype=float)
@@ -138,21 +144,70 @@ class Echoes:
         except TypeError:
             raise ValueError(f"Echoes.static_key must be hashable, got {type(self.static_key).__name__}") from None
 
+    def __getattr__(self, name):
+        # only reached for attributes the instance lacks: the contribution arrays of a joined
+        # Echoes (:meth:`concatenate`) before their first use
+        parts = self.__dict__.get("_parts")
+        if parts is None or name not in JOINED_FIELDS:
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+        if name == "labels":
+            value = None
+            if all(p.labels is not None for p in parts):
+                value = _concatenate_labels([p.labels for p in parts])
+        else:
+            value = np.concatenate([getattr(p, name) for p in parts], axis=2)
+        setattr(self, name, value)
+        if all(f in self.__dict__ for f in JOINED_FIELDS):
+            del self._parts   # everything is joined: the parts are no longer needed
+        return value
+
     @property
     def shape(self) -> tuple[int, int, int]:
+        parts = self.__dict__.get("_parts")
+        if parts is not None:
+            return parts[0].shape[:2] + (sum(p.num_contributions for p in parts),)
         return self.a.shape
 
     @property
     def num_tx(self) -> int:
-        return self.a.shape[0]
+        return self.shape[0]
 
     @property
     def num_rx(self) -> int:
-        return self.a.shape[1]
+        return self.shape[1]
 
     @property
     def num_contributions(self) -> int:
-        return self.a.shape[2]
+        return self.shape[2]
+
+    def contributions(self, start: int = 0, stop: int | None = None) -> "Echoes":
+        """Contributions ``[..., start:stop]`` as an :class:`Echoes` without labels or static block:
+        views where they lie in one part of a joined :class:`Echoes` (:meth:`concatenate`; the
+        synthesizer takes the static block and the rest this way without joining them), else
+        views of (or, across parts, a join of) the arrays."""
+        total = self.num_contributions
+        start, stop, _ = slice(start, stop).indices(total)
+        parts = self.__dict__.get("_parts")
+        if parts is not None:
+            bounds = np.cumsum([0] + [p.num_contributions for p in parts])
+            inside = [k for k in range(len(parts)) if bounds[k] < stop and bounds[k + 1] > start]
+            if not inside:
+                inside = [0]
+            pieces = [parts[k].contributions(max(start - bounds[k], 0), min(stop, bounds[k + 1]) - bounds[k])
+                      for k in inside]
+            if len(pieces) == 1:
+                return pieces[0]
+            out = object.__new__(Echoes)
+            for name in CONTRIBUTION_FIELDS:
+                setattr(out, name, np.concatenate([getattr(p, name) for p in pieces], axis=2))
+            out.labels, out.static_count, out.static_key = None, 0, None
+            return out
+        cut = slice(start, stop)
+        out = object.__new__(Echoes)
+        for name in CONTRIBUTION_FIELDS:
+            setattr(out, name, getattr(self, name)[..., cut])
+        out.labels, out.static_count, out.static_key = None, 0, None
+        return out
 
     @classmethod
     def empty(cls, num_tx: int, num_rx: int) -> "Echoes":
@@ -165,20 +220,21 @@ class Echoes:
 
         The static block of ``parts[0]`` stays a prefix and is kept; those of the other parts are
         not (they are no longer a prefix). Labels that are the same for every element pair in
-        every part (given as ``[num_contributions]``) stay a broadcast view.
+        every part (given as ``[num_contributions]``) stay a broadcast view. The contribution
+        arrays and the labels (:data:`JOINED_FIELDS`) are joined when first read (a frame's labels
+        are ~4e5 strings); :meth:`contributions` takes a range that lies in one part without joining.
         """
         if not parts:
             raise ValueError("Echoes.concatenate: no parts to concatenate")
-        labels = None
-        if all(p.labels is not None for p in parts):
-            labels = _concatenate_labels([p.labels for p in parts])
+        shapes = {p.shape[:2] for p in parts}
+        if len(shapes) > 1:
+            raise ValueError(f"Echoes.concatenate: the parts have different element pairs {sorted(shapes)}")
         # every part passed the checks of __post_init__ and so does their concatenation: not
-        # checked again (a frame's echoes are ~1e5 contributions x element pairs)
+        # checked again (a frame's echoes are ~1e5 contributions x element pairs). The arrays are
+        # joined on first use (__getattr__): a frame's echoes share the static block's arrays
+        # (~3e5 contributions x element pairs) instead of copying them every frame.
         out = object.__new__(cls)
-        out.a = np.concatenate([p.a for p in parts], axis=2)
-        out.tau = np.concatenate([p.tau for p in parts], axis=2)
-        out.doppler = np.concatenate([p.doppler for p in parts], axis=2)
-        out.labels = labels
+        out._parts = [q for p in parts for q in (p.__dict__.get("_parts") or [p])]
         out.static_count, out.static_key = parts[0].static_count, parts[0].static_key
         return out
 
@@ -252,3 +308,8 @@ class Echoes:
         tau = (r_t[:, None, :] + r_r[None, :, :]) / SPEED_OF_LIGHT
         doppler = -(rate_t[:, None, :] + rate_r[None, :, :]) / wavelength
         return cls(amplitude.astype(complex), tau, doppler, labels)
+
+
+# A joined Echoes (Echoes.concatenate) reads its labels through __getattr__, joined on first use: no
+# class attribute may stand in for them (the dataclass default None stays the __init__ default).
+del Echoes.labels

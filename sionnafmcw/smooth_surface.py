@@ -366,7 +366,16 @@ _QUAD_COEF = np.array([1, 1, 1, 2, 2, 2], float)
 
 
 def _basis(weights, powers, coef):
+    """Bernstein basis ``[K, C]`` of the monomials ``powers [C, 3]`` at ``weights [K, 3]`` (written out for
+    the cubic and quadratic patches: they are evaluated at every PO sample)."""
     w = np.asarray(weights, float)
+    w0, w1, w2 = w[:, 0], w[:, 1], w[:, 2]
+    if powers is _CUBIC:
+        a, b, c = w0 * w0, w1 * w1, w2 * w2
+        return np.stack([a * w0, b * w1, c * w2, 3 * a * w1, 3 * w0 * b, 3 * b * w2, 3 * w1 * c, 3 * w0 * c,
+                         3 * a * w2, 6 * w0 * w1 * w2], axis=-1)
+    if powers is _QUAD:
+        return np.stack([w0 * w0, w1 * w1, w2 * w2, 2 * w0 * w1, 2 * w1 * w2, 2 * w0 * w2], axis=-1)
     return coef * np.prod(w[:, None, :] ** powers[None], axis=-1)
 
 

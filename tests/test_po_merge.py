@@ -11,7 +11,7 @@ from sionnafmcw import RadarConfig
 from sionnafmcw.constants import SPEED_OF_LIGHT
 from sionnafmcw.echoes import Echoes
 from sionnafmcw.engines.po_merge import (
-    FRACTIONS, merge_budget, merge_cells, merge_contributions, merge_error_bound,
+    FRACTIONS, MIN_SAVING, cell_keys, count_cells, merge_budget, merge_cells, merge_contributions, merge_error_bound,
 )
 from sionnafmcw.geometry import rotation_matrix
 from sionnafmcw.physical_optics import SurfaceSamples, element_gains, po_gains
@@ -90,3 +90,26 @@ def test_directions_the_array_tells_apart_are_not_merged():
     assert merge_contributions(a, tau, dop, ["x", "x"], apart, RADAR, budget=np.inf).a.shape[-1] == 2
     same = np.array([[1.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
     assert merge_contributions(a, tau, dop, ["x", "x"], same, RADAR, budget=np.inf).a.shape[-1] == 1
+
+
+def test_a_merge_is_made_only_where_it_saves():
+    """The cell count the merge decides on (:func:`count_cells`, a sort) is the cells' count; a merge
+    removing less than MIN_SAVING of the contributions is not made, whatever the budget: a plate seen
+    in cells so fine that few samples share one comes back unmerged, the same plate in coarse cells
+    merges."""
+    a, tau, dop, u = _plate_samples(range_m=4.0, size=0.4, n=80, reflection=-1e-3)
+    codes = np.zeros(a.shape[-1], np.int64)
+    for fraction in FRACTIONS[::3]:
+        assert count_cells(cell_keys(tau[0, 0], dop[0, 0], u, codes, RADAR, fraction)) == \
+            merge_cells(tau[0, 0], dop[0, 0], u, codes, RADAR, fraction)[1].size
+    labels = np.full(a.shape[-1], "p")
+    assert merge_contributions(a, tau, dop, labels, u, RADAR, budget=np.inf).fraction == FRACTIONS[0]
+    # every sample its own label: no two share a cell, nothing is saved, nothing is merged
+    alone = merge_contributions(a, tau, dop, np.arange(a.shape[-1]).astype(str), u, RADAR, budget=np.inf)
+    assert alone.fraction is None and alone.a is a
+    # nine samples in ten with their own label: the saving is what the tenth merges, below MIN_SAVING
+    few = np.where(np.arange(a.shape[-1]) % 10 < 9, np.arange(a.shape[-1]).astype(str), "p")
+    merged = merge_contributions(a, tau, dop, few, u, RADAR, budget=np.inf)
+    assert 1 - count_cells(cell_keys(tau[0, 0], dop[0, 0], u, np.unique(few, return_inverse=True)[1], RADAR,
+                                     FRACTIONS[0])) / a.shape[-1] < MIN_SAVING
+    assert merged.fraction is None

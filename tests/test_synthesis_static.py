@@ -218,3 +218,27 @@ def test_concatenate_labels_fast_path_gives_the_same_labels(radar):
     for e in (Echoes.concatenate(parts), joined):
         mask = rng.random(e.num_contributions) < 0.5
         assert np.array_equal(e.select(mask).labels, np.array(e.labels)[..., mask])
+
+
+def test_a_joined_frame_shares_the_static_block_until_its_arrays_are_read(radar):
+    """Echoes.concatenate joins the arrays on first read: the synthesizer takes the static block and
+    the rest as views (a frame's echoes do not copy the ~3e5-contribution static block), and what is
+    read is the join of the parts, bit for bit."""
+    static = room(radar, count=6)
+    movers = [targets(radar, 3, 7, 4.0, "arm"), targets(radar, 2, 8, 4.0, "leg")]
+    joined = Echoes.concatenate([static, Echoes.concatenate(movers)])
+    assert joined.shape == (radar.num_tx, radar.num_rx, 11) and "a" not in vars(joined)
+    block, rest = joined.contributions(0, joined.static_count), joined.contributions(joined.static_count)
+    assert np.shares_memory(block.a, static.a) and "a" not in vars(joined), "the static block is a view"
+    assert rest.num_contributions == 5 and rest.static_key is None and rest.labels is None
+    for start, stop in [(0, 6), (6, None), (4, 9), (7, 8), (11, 11), (0, None)]:
+        np.testing.assert_array_equal(joined.contributions(start, stop).tau,
+                                      np.concatenate([static.tau, *(m.tau for m in movers)], axis=2)[..., start:stop])
+    expected = np.concatenate([static.a, *(m.a for m in movers)], axis=2)
+    np.testing.assert_array_equal(joined.a, expected)
+    # the cached cube of the joined frame is the cube of the same contributions given whole
+    whole = Echoes(expected, joined.tau, joined.doppler, static_count=6, static_key="whole")
+    cache = {}
+    np.testing.assert_array_equal(
+        synthesize(Echoes.concatenate([static, *movers]), radar, noise=False, static_cache=cache),
+        synthesize(whole, radar, noise=False, static_cache={}))

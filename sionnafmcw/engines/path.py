@@ -344,8 +344,8 @@ class PathEngine(Engine):
             obj.velocity = mi.Vector3f(0.0, 0.0, 0.0)  # create every velocity parameter up front
             if self.physical_optics:
                 materials[name] = radio_material(obj.radio_material, name)
-        surfaces = SurfaceWorld.build(animation, list(scene.objects)) if self.physical_optics or self.static_scene \
-            else None
+        surfaces = SurfaceWorld.build(animation, list(scene.objects), wavelength=wavelength) \
+            if self.physical_optics or self.static_scene else None
         return _State(tx, rx, names_by_id, materials=materials, surfaces=surfaces)
 
     def _geometry_changed(self) -> None:

@@ -249,7 +249,7 @@ class PixelEngine(Engine):
                 "engine's Lambertian model sees diffuse scattering only, so it sees nothing. Give the materials a "
                 "scattering_coefficient, set PixelEngine(scattering_coefficient=...) or use "
                 "model='physical-optics'.", stacklevel=3)
-        world = SurfaceWorld.build(animation, names)
+        world = SurfaceWorld.build(animation, names, wavelength=SPEED_OF_LIGHT / radar.fc)
         world.cast(np.zeros(3), np.tile([[1.0, 0.0, 0.0]], (self.grid.num_pixels, 1)))
         return _State(names, materials, po_materials, world)
 

@@ -235,7 +235,11 @@ class SceneObject:
     def hit_geometry(self, triangle, bary):
         r"""Position, shading normal, velocity ``[K, 3]`` (world) and the normal's shape operator
         ``[K, 3, 3]`` (:func:`~sionnafmcw.physical_optics.interpolated_normals`) of hits on triangles
-        ``triangle [K]`` at barycentrics ``bary [K, 2]`` of the surface (float64): computed in the
+        ``triangle [K]`` at barycentrics ``bary [K, 2]`` of the surface (float64). On a refined surface
+        the position and normal are the smooth surface's at the hit's parameters
+        (:meth:`~.surfaces.Surface.smooth_points`: on the flat sub-facets the lattice acts as a phase
+        grating, 1.2-1.4 dB low on a refined icosphere at the lambda/25 rule, within 0.15 dB on the smooth
+        surface, :mod:`sionnafmcw.smooth_surface`); the shape operator is the sub-facet's. Computed in the
         surface's own frame and placed, :math:`\mathbf x = \mathbf R\mathbf x_L + \mathbf p`,
         :math:`\hat{\mathbf n} = \mathbf R\hat{\mathbf n}_L`, :math:`\mathbf K = \mathbf R\mathbf K_L\mathbf R^T`;
         velocity :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)` for a turning
@@ -243,7 +247,9 @@ class SceneObject:
         surface, place = self.surface, self.placement
         tri = surface.faces[triangle]
         w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
-        position = place.to_world(interpolate(surface.vertices, tri, w))
+        smooth = surface.smooth_points(triangle, bary)
+        local = interpolate(surface.vertices, tri, w) if smooth is None else smooth[0]
+        position = place.to_world(local)
         rot = place.rotation
         if surface.flat:   # what interpolated_normals gives there, without its arithmetic
             m = surface.corner_normals[triangle, 0]
@@ -251,6 +257,8 @@ class SceneObject:
             curvature = np.zeros((len(triangle), 3, 3))
         else:
             normal, curvature = interpolated_normals(surface.vertices[tri], surface.corner_normals[triangle], bary)
+            if smooth is not None:
+                normal = smooth[1]
             normal = normal @ rot.T
             if not np.array_equal(rot, np.eye(3)):
                 curvature = np.einsum("ij,pjk,lk->pil", rot, curvature, rot)
@@ -485,6 +493,11 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
         start, width, low, high, r_min, r_max = object_box(obj.box_vertices, origin, rotation)
         if r_min <= 0:
             raise RenderError(f"po_render: the render origin lies on object {obj.name!r}")
+        if obj.surface.bulge > 0 and width < 2 * np.pi:   # the smooth surface reaches beyond the stored facets
+            pad = float(np.arcsin(min(1.0, obj.surface.bulge / r_min)))
+            pad_az = pad / max(np.cos(max(abs(low), abs(high))), 1e-3)
+            start, width = start - pad_az, min(width + 2 * pad_az, 2 * np.pi)
+            low, high = max(low - pad, -np.pi / 2), min(high + pad, np.pi / 2)
         if field_of_view is not None:
             box = _clip_box(start, width, low, high, *field_of_view)
             if box is None:

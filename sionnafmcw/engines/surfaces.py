@@ -72,19 +72,24 @@ class Surface:
     shape_key: int = -1      # the Mitsuba shape of this surface in its scene (reinterpreted pointer)
     slot: np.ndarray | None = None   # rigid surfaces: where the atlas puts the sphere's centre
     first_vertices: np.ndarray | None = None   # the vertices it was built with (a deforming surface's frame 0)
+    level: int = 1                    # the smooth-surface refinement's subdivisions per edge (1: the mesh itself)
+    bulge: float = 0.0                # how far (m) the smooth surface leaves the stored mesh's facets
+    vertex_map: tuple | None = None   # refined surfaces: (input triangle [V'], barycentric weights [V', 3]) per vertex
+    mesh_faces: np.ndarray | None = None   # the stored mesh's faces (what the vertex map's triangles index)
+    refined: object = None            # the :class:`~sionnafmcw.smooth_surface.RefinedSurface` (None: the mesh itself)
 
     def __post_init__(self):
         if self.first_vertices is None:
             self.first_vertices = self.vertices
 
-    @classmethod
-    def build(cls, name: str, kind: str, vertices, faces, vertex_normals=None, crease_angle=None) -> Surface:
-        """The surface of a mesh (own frame): corner normals (module docstring), curvature radius,
-        flatness, bounding sphere and centroid."""
-        from .po_render import CREASE_ANGLE, curvature_radius, flat_shaded, shading_normals
+    @staticmethod
+    def corner_normals_of(vertices, faces, vertex_normals=None, crease_angle=None) -> np.ndarray:
+        """The corner normals ``[F, 3, 3]`` of a mesh (module docstring: the given vertex normals where they
+        agree with the facet within the crease angle, the crease-aware shading normals elsewhere)."""
+        from .po_render import CREASE_ANGLE, shading_normals
 
-        v = np.ascontiguousarray(vertices, dtype=float)
-        f = np.ascontiguousarray(faces, dtype=np.int64)
+        v = np.asarray(vertices, float)
+        f = np.asarray(faces, np.int64)
         crease = CREASE_ANGLE if crease_angle is None else float(crease_angle)
         normals = shading_normals(v, f, crease)
         if vertex_normals is not None:
@@ -93,11 +98,66 @@ class Surface:
             facet /= np.maximum(np.linalg.norm(facet, axis=1, keepdims=True), 1e-300)
             agrees = np.abs(np.einsum("fci,fi->fc", given, facet)) >= np.cos(crease)
             normals = np.where(agrees[..., None], given, normals)
+        return normals
+
+    @classmethod
+    def build(cls, name: str, kind: str, vertices, faces, vertex_normals=None, crease_angle=None,
+              wavelength: float | None = None, level: int | None = None) -> Surface:
+        """The surface of a mesh (own frame): corner normals (:meth:`corner_normals_of`), and, with a
+        ``wavelength`` (m), the smooth surface those normals describe tessellated finely enough for
+        physical optics (:func:`~sionnafmcw.smooth_surface.refinement_level`, or the given ``level``;
+        :func:`~sionnafmcw.smooth_surface.pn_refine`: a flat mesh stays itself); then its curvature
+        radius, flatness, bounding sphere and centroid."""
+        from ..smooth_surface import facet_sagitta, pn_refine, refinement_level
+        from .po_render import curvature_radius, flat_shaded
+
+        v = np.ascontiguousarray(vertices, dtype=float)
+        f = np.ascontiguousarray(faces, dtype=np.int64)
+        normals = cls.corner_normals_of(v, f, vertex_normals, crease_angle)
+        bulge, vertex_map, used, refined = 0.0, None, 1, None
+        if (wavelength is not None or level is not None) and len(f) and not flat_shaded(normals):
+            sagitta = facet_sagitta(v, f, normals)
+            bulge = float(sagitta.max()) if sagitta.size else 0.0
+            used = refinement_level(v, f, normals, wavelength) if level is None else int(level)
+            if used > 1:
+                refined = pn_refine(v, f, normals, used)
+                vertex_map = _vertex_map(refined)
+                v, f, normals = refined.vertices, refined.faces, refined.corner_normals
         lo, hi = v.min(axis=0), v.max(axis=0)
         centre = 0.5 * (lo + hi)
         radius = float(np.max(np.linalg.norm(v - centre, axis=1))) if len(v) else 0.0
         return cls(name, kind, v, f, normals, curvature_radius(v, f, normals), flat_shaded(normals), centre,
-                   radius * (1 + 1e-6) + 1e-6, area_centroid(v, f))
+                   radius * (1 + 1e-6) + 1e-6, area_centroid(v, f), level=used, bulge=bulge, vertex_map=vertex_map,
+                   mesh_faces=np.ascontiguousarray(faces, dtype=np.int64), refined=refined)
+
+    def smooth_points(self, triangle, bary) -> tuple[np.ndarray, np.ndarray] | None:
+        """Points and unit normals ``[K, 3]`` (own frame) on the smooth surface at hits ``triangle [K]``,
+        ``bary [K, 2]`` of this surface's triangles (:meth:`~sionnafmcw.smooth_surface.RefinedSurface.smooth_points`:
+        where the PO samples belong); None for a surface that is its mesh (flat, or not refined)."""
+        if self.refined is None:
+            return None
+        return self.refined.smooth_points(triangle, bary)
+
+    def vertex_values(self, values) -> np.ndarray:
+        """Per-vertex ``values [V, K]`` of the stored mesh (e.g. a deforming mesh's velocities) at this
+        surface's vertices: interpolated over the input triangle each refined vertex lies on."""
+        if self.vertex_map is None:
+            return np.asarray(values)
+        triangle, weights = self.vertex_map
+        corners = np.asarray(values)[self.mesh_faces[triangle]]                # [V', 3, K]
+        return np.einsum("vc,vck->vk", weights, corners)
+
+
+def _vertex_map(refined) -> tuple:
+    """``(input triangle [V'], barycentric weights [V', 3])`` of every vertex of a refined surface (from any
+    sub-triangle corner at it: a vertex shared by two input triangles lies on their common edge, where
+    both give the same linear interpolation)."""
+    faces = refined.faces
+    triangle = np.zeros(len(refined.vertices), dtype=np.int64)
+    bary = np.zeros((len(refined.vertices), 2))
+    triangle[faces.reshape(-1)] = np.repeat(refined.parent, 3)
+    bary[faces.reshape(-1)] = refined.barycentric.reshape(-1, 2)
+    return triangle, np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
 
 
 def mitsuba_mesh(name: str, vertices, faces):
@@ -157,16 +217,19 @@ class SurfaceWorld:
     atlas: object = None                                 # the rigid surfaces' scene (module docstring)
     atlas_indices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     _opaque: dict = field(default_factory=dict, repr=False)   # per surface: its placement as opaque Dr.Jit values
+    _stamps: dict = field(default_factory=dict, repr=False)   # deforming surfaces: the loaded file they show
 
     @property
     def index(self) -> dict:
         return {n: k for k, n in enumerate(self.names)}
 
     @classmethod
-    def build(cls, animation, names, kinds: dict | None = None, crease_angle=None) -> SurfaceWorld:
+    def build(cls, animation, names, kinds: dict | None = None, crease_angle=None,
+              wavelength: float | None = None) -> SurfaceWorld:
         """The surfaces of ``names`` from frame 0 of ``animation``: ``kinds[name]`` (default
         :func:`surface_kinds`) is ``"static"``, ``"rigid"`` or ``"deforming"``. Rigid surfaces are
-        built in the PLY's own frame, the others in the world."""
+        built in the PLY's own frame, the others in the world; with a ``wavelength`` (m) every curved
+        surface is its smooth surface, refined for physical optics (:meth:`Surface.build`)."""
         from ..animation.ply import read_ply_cached
 
         kinds = surface_kinds(animation, names) if kinds is None else kinds
@@ -184,7 +247,7 @@ class SurfaceWorld:
                 if normals is not None:   # normals transform with the inverse transpose
                     normals = normals @ np.linalg.inv(info.to_world[:3, :3])
                     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-            surface = Surface.build(name, kind, v, ply.faces, normals, crease_angle)
+            surface = Surface.build(name, kind, v, ply.faces, normals, crease_angle, wavelength)
             if kind == "static":
                 static_meshes[name] = mitsuba_mesh(name, surface.vertices, surface.faces)
             elif kind == "deforming":
@@ -234,22 +297,28 @@ class SurfaceWorld:
                 self.placements[k] = Placement(m.rotation, m.translation, v, m if spin else None)
             elif surface.kind == "deforming":
                 vertices = loaded.vertices[name]
-                if vertices.shape != surface.vertices.shape or not np.array_equal(vertices, surface.vertices):
+                if self._stamps.get(k) != loaded.loaded_files.get(name):
                     self._rewrite(surface, vertices)
+                    self._stamps[k] = loaded.loaded_files.get(name)
+                field = loaded.vertex_velocity.get(name)
                 self.placements[k] = Placement(np.eye(3), np.zeros(3), v,
-                                               vertex_velocity=loaded.vertex_velocity.get(name))
+                                               vertex_velocity=None if field is None else surface.vertex_values(field))
             else:
                 self.placements[k] = Placement(np.eye(3), np.zeros(3), v)
         self.frame = frame
 
     @staticmethod
     def _rewrite(surface: Surface, vertices) -> None:
-        """A deforming surface's vertices of this frame (its scene updated; its normals recomputed)."""
+        """A deforming surface in this frame: the stored mesh's vertices (rebuilt at the surface's level:
+        the same topology) written into its scene, normals and figures recomputed."""
         from ..sionna_rt import dr, mi
-        from .po_render import curvature_radius, flat_shaded, shading_normals
+        from .po_render import curvature_radius, flat_shaded
 
-        surface.vertices = np.ascontiguousarray(vertices, dtype=float)
-        surface.corner_normals = shading_normals(surface.vertices, surface.faces)
+        new = Surface.build(surface.name, surface.kind, vertices, surface.mesh_faces, level=surface.level)
+        if new.vertices.shape != surface.vertices.shape:
+            raise ValueError(f"{surface.name!r}: its mesh changes its vertex count from frame to frame")
+        surface.vertices, surface.faces, surface.corner_normals = new.vertices, new.faces, new.corner_normals
+        surface.vertex_map, surface.refined = new.vertex_map, new.refined
         surface.curvature_radius = curvature_radius(surface.vertices, surface.faces, surface.corner_normals)
         surface.flat = flat_shaded(surface.corner_normals)
         lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)

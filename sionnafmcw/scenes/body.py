@@ -117,6 +117,10 @@ VELOCITY_STEP = 1e-5
 #: Default largest triangle edge (m) of the body meshes, from the PO convergence study
 #: (module docstring, *Mesh resolution*).
 MESH_EDGE = 0.008
+#: Largest turn (rad) of the surface normal over one grid step of a segment mesh (module docstring,
+#: *Mesh resolution*): where a segment's radius of curvature :math:`\rho` is small (the foot's toe and
+#: heel, :math:`\rho` = 9 mm) its steps are kept to :math:`\psi_{max}\rho` whatever the edge length.
+MAX_NORMAL_TURN = 0.6
 
 # ----------------------------------------------------------------------------- anthropometry
 RATIOS = {
@@ -209,12 +213,28 @@ def segment_meshes(body: Anthropometry, max_edge: float | None = None) -> dict:
     out = {}
     for name, shape in segment_shapes(body).items():
         if shape[0] == "ellipsoid":
-            theta, phi = meshes.ellipsoid_grid(shape[2], max_edge)
+            theta, phi = meshes.ellipsoid_grid(shape[2], max_edge, MAX_NORMAL_TURN)
             out[name] = meshes.ellipsoid(shape[1], shape[2], theta=theta, phi=phi)
         else:
             p0, p1, radius = np.asarray(shape[1], float), np.asarray(shape[2], float), shape[3]
-            n_segments, n_cap, n_body = meshes.capsule_divisions(float(np.linalg.norm(p1 - p0)), radius, max_edge)
+            n_segments, n_cap, n_body = meshes.capsule_divisions(float(np.linalg.norm(p1 - p0)), radius, max_edge,
+                                                                 MAX_NORMAL_TURN)
             out[name] = meshes.capsule(p0, p1, radius, n_segments=n_segments, n_cap=n_cap, n_body=n_body)
+    return out
+
+
+def segment_normals(body: Anthropometry, local_meshes: dict) -> dict:
+    """``{segment: unit normals [V, 3]}`` of :func:`segment_meshes`' vertices: the exact normals of the
+    segments' smooth surfaces (:func:`segment_shapes`; :func:`.meshes.ellipsoid_normals`,
+    :func:`.meshes.capsule_normals`), which the PLYs carry. The smooth surface the PO render rebuilds
+    from a coarse mesh (:mod:`sionnafmcw.smooth_surface`) is only as good as its normals: the
+    area-weighted mesh normals (:func:`.meshes.vertex_normals`) of 32 mm facets are 1.4-6.7 degrees
+    off, their echo up to 3.4 dB (``benchmarks/smooth_surface.py walker``)."""
+    out = {}
+    for name, shape in segment_shapes(body).items():
+        v = local_meshes[name][0]
+        out[name] = (meshes.ellipsoid_normals(v, shape[1], shape[2]) if shape[0] == "ellipsoid"
+                     else meshes.capsule_normals(v, shape[1], shape[2]))
     return out
 
 
@@ -301,7 +321,7 @@ class WalkingPerson:
         self.timing = GaitTiming(self.speed, self.body.thigh_height, self.rv_max)
         self.gait = BoulicGait(self.timing.rv_shape)
         self.local_meshes = segment_meshes(self.body, self.mesh_edge)
-        self.local_normals = {k: meshes.vertex_normals(*m) for k, m in self.local_meshes.items()}
+        self.local_normals = segment_normals(self.body, self.local_meshes)
         self.local_centroids = {k: _area_centroid(*m) for k, m in self.local_meshes.items()}
         self.hip_height = self._floor_contact_height()
 
@@ -441,6 +461,6 @@ def radial_velocities(positions, velocities, radar_position) -> np.ndarray:
     return np.einsum("...i,...i->...", d, np.asarray(velocities, float)) / np.linalg.norm(d, axis=-1)
 
 
-__all__ = ["Anthropometry", "CircleTrack", "LineTrack", "MESH_EDGE", "RATIOS", "SEGMENTS", "SegmentState",
-           "VELOCITY_STEP", "WalkingPerson", "radial_velocities", "segment_meshes", "segment_shapes",
+__all__ = ["Anthropometry", "CircleTrack", "LineTrack", "MAX_NORMAL_TURN", "MESH_EDGE", "RATIOS", "SEGMENTS", "SegmentState",
+           "VELOCITY_STEP", "WalkingPerson", "radial_velocities", "segment_meshes", "segment_normals", "segment_shapes",
            "smallest_curvature_radius"]

@@ -183,19 +183,31 @@ def _count(length: float, spacing: float, minimum: int) -> int:
     return max(minimum, int(np.ceil(length / spacing - 1e-9)))
 
 
-def _equal_arc_angles(a: float, b: float, start: float, stop: float, spacing: float, minimum: int) -> np.ndarray:
-    """Parameters ``t_0 = start < ... < t_n = stop`` of the curve ``(a cos t, b sin t)`` cutting it into
-    ``n >= minimum`` arcs of equal length, each at most ``spacing`` (m)."""
+def _equal_arc_angles(a: float, b: float, start: float, stop: float, spacing: float, minimum: int,
+                      max_turn: float | None = None) -> np.ndarray:
+    r"""Parameters ``t_0 = start < ... < t_n = stop`` of the curve ``(a cos t, b sin t)`` cutting it into
+    ``n >= minimum`` arcs, each at most ``spacing`` (m) long and, with ``max_turn`` (rad), turning its
+    normal by at most that much: equal steps of
+    :math:`\int\max(|\dot{\mathbf x}|/h,\ \dot\psi/\psi_{max})\,dt` with the speed
+    :math:`|\dot{\mathbf x}| = \sqrt{a^2\sin^2t + b^2\cos^2t}` and the normal's turn rate
+    :math:`\dot\psi = ab/|\dot{\mathbf x}|^2` (curvature times speed): equal arcs where the curve is
+    gentle, steps of :math:`\psi_{max}ho` where its radius of curvature :math:`ho` is small (a
+    foot's toe)."""
     t = np.linspace(start, stop, 4097)
     speed = np.hypot(a * np.sin(t), b * np.cos(t))
-    arc = np.concatenate([[0.0], np.cumsum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t))])
-    n = _count(arc[-1], spacing, minimum)
+    rate = speed / spacing
+    if max_turn is not None:
+        rate = np.maximum(rate, a * b / np.maximum(speed, 1e-300) ** 2 / max_turn)
+    arc = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1]) * np.diff(t))])
+    n = _count(arc[-1], 1.0, minimum)
     return np.interp(np.linspace(0.0, arc[-1], n + 1), arc, t)
 
 
-def ellipsoid_grid(radii, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
+def ellipsoid_grid(radii, max_edge: float, max_turn: float | None = None) -> tuple[np.ndarray, np.ndarray]:
     r"""Ring polar angles ``theta`` and meridian azimuths ``phi`` (rad) of an :func:`ellipsoid` whose
-    triangle edges stay below ``max_edge`` (m).
+    triangle edges stay below ``max_edge`` (m) and, with ``max_turn`` (rad), whose grid steps turn the
+    normal by at most ``max_turn`` along the equator and the sharpest meridian (steps of
+    :func:`_equal_arc_angles`).
 
     Azimuths cut the equator :math:`(a\cos\varphi, b\sin\varphi)` into equal arcs of at most
     :math:`h = e/\sqrt2` (every other ring is the equator scaled by :math:`\sin\vartheta`, its arcs
@@ -210,9 +222,9 @@ def ellipsoid_grid(radii, max_edge: float) -> tuple[np.ndarray, np.ndarray]:
     a, b, c = (float(r) for r in radii)
     h = max_edge / np.sqrt(2.0)
     for _ in range(8):
-        phi = _equal_arc_angles(a, b, 0.0, 2 * np.pi, h, 8)[:-1]
+        phi = _equal_arc_angles(a, b, 0.0, 2 * np.pi, h, 8, max_turn)[:-1]
         # meridian (R sin th, c cos th) = (c cos th, R sin th) mirrored: speed sqrt(R^2 cos^2 + c^2 sin^2)
-        theta = _equal_arc_angles(c, max(a, b), 0.0, np.pi, h, 4)[1:-1]
+        theta = _equal_arc_angles(c, max(a, b), 0.0, np.pi, h, 4, max_turn)[1:-1]
         longest = float(edge_lengths(*ellipsoid((0, 0, 0), (a, b, c), theta=theta, phi=phi)).max())
         if longest <= max_edge:
             break
@@ -226,14 +238,20 @@ def ellipsoid_divisions(radii, max_edge: float) -> tuple[int, int]:
     return len(theta) + 1, len(phi)
 
 
-def capsule_divisions(length: float, radius: float, max_edge: float) -> tuple[int, int, int]:
+def capsule_divisions(length: float, radius: float, max_edge: float,
+                      max_turn: float | None = None) -> tuple[int, int, int]:
     """``(n_segments, n_cap, n_body)`` of :func:`capsule` whose triangle edges stay below ``max_edge`` (m):
     circumference, quarter-circle cap meridian and cylinder length divided into steps of at most
-    ``max_edge / sqrt(2)``."""
+    ``max_edge / sqrt(2)`` and, with ``max_turn`` (rad), of at most ``max_turn`` of the normal
+    (``max_turn * radius`` of arc)."""
     if not max_edge > 0:
         raise ValueError(f"capsule_divisions: max_edge must be > 0 m, got {max_edge!r}")
     h = max_edge / np.sqrt(2.0)
-    return (_count(2 * np.pi * radius, h, 8), _count(0.5 * np.pi * radius, h, 2), _count(length, h, 1))
+    if max_turn is not None:
+        h_arc = min(h, float(max_turn) * radius)
+    else:
+        h_arc = h
+    return (_count(2 * np.pi * radius, h_arc, 8), _count(0.5 * np.pi * radius, h_arc, 2), _count(length, h, 1))
 
 
 def sagitta(edge: float, curvature_radius: float) -> float:
@@ -263,6 +281,28 @@ def vertex_normals(vertices, faces) -> np.ndarray:
     return out
 
 
+def ellipsoid_normals(vertices, center, radii, rotation=None) -> np.ndarray:
+    r"""Exact unit normals ``[V, 3]`` of the ellipsoid (:func:`ellipsoid`'s ``center``, ``radii``,
+    ``rotation``) at ``vertices`` on it: the gradient of :math:`\sum_i (x_i/r_i)^2`,
+    :math:`\hat{\mathbf n} \propto \mathbf R\,\mathrm{diag}(r)^{-2}\mathbf R^T(\mathbf x - \mathbf c)`."""
+    rot = np.eye(3) if rotation is None else np.asarray(rotation, float)
+    local = (np.asarray(vertices, float) - np.asarray(center, float)) @ rot
+    n = (local / np.asarray(radii, float) ** 2) @ rot.T
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
+def capsule_normals(vertices, p0, p1) -> np.ndarray:
+    """Exact unit normals ``[V, 3]`` of the capsule (:func:`capsule`) between ``p0`` and ``p1`` at
+    ``vertices`` on it: from the nearest point of the axis segment to the vertex (radial on the
+    cylinder, from the cap's centre on the caps)."""
+    p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+    v = np.asarray(vertices, float)
+    axis = p1 - p0
+    t = np.clip((v - p0) @ axis / max(float(axis @ axis), 1e-300), 0.0, 1.0)
+    n = v - (p0 + t[:, None] * axis)
+    return n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
 def merge(*meshes):
     """Concatenate ``(vertices, faces)`` pairs into one mesh."""
     vs, fs, off = [], [], 0
@@ -279,6 +319,6 @@ def signed_volume(vertices, faces) -> float:
     return float(np.einsum("ij,ij->i", tri[:, 0], np.cross(tri[:, 1], tri[:, 2])).sum() / 6.0)
 
 
-__all__ = ["box", "capsule", "capsule_divisions", "edge_lengths", "ellipse_perimeter", "ellipsoid",
-           "ellipsoid_divisions", "ellipsoid_grid", "merge", "plate", "sagitta", "signed_volume", "trihedral",
-           "vertex_normals"]
+__all__ = ["box", "capsule", "capsule_divisions", "capsule_normals", "edge_lengths", "ellipse_perimeter", "ellipsoid",
+           "ellipsoid_divisions", "ellipsoid_grid", "ellipsoid_normals", "merge", "plate", "sagitta", "signed_volume",
+           "trihedral", "vertex_normals"]

@@ -184,10 +184,7 @@ def _delay_weights(echoes, radar) -> np.ndarray:
 
 def _contributions(echoes, start: int, stop: int | None = None):
     """Contributions ``[..., start:stop]`` of ``echoes`` (views; no labels, no static block)."""
-    from ..echoes import Echoes
-
-    part = slice(start, stop)
-    return Echoes(echoes.a[..., part], echoes.tau[..., part], echoes.doppler[..., part])
+    return echoes.contributions(start, stop)
 
 
 #: Share of the error budget given to the static block's sum (computed once per block); the
