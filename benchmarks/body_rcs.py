@@ -3,6 +3,7 @@
     .venv/bin/python benchmarks/body_rcs.py convergence   # mesh-resolution study (sets body.MESH_EDGE)
     .venv/bin/python benchmarks/body_rcs.py aspect        # RCS vs aspect, poses, 3 m and 10 m; figure + statistics
     .venv/bin/python benchmarks/body_rcs.py scene         # circle_walk: PLY size per frame, time to build 100 frames
+    .venv/bin/python benchmarks/body_rcs.py ab            # statistics of the 8 mm flat-sampled body against the default
 
 Method (tests/body_po.py): the body of ``sionnafmcw.scenes.body.WalkingPerson`` (1.8 m, walking at
 1.4 m/s) at a gait phase, in its own frame; the radar at distance R (horizontal) and aspect phi
@@ -201,6 +202,42 @@ def scene_cost(num_frames=100):
               f"loadable ({len(anim.frames) if hasattr(anim, 'frames') else anim.num_frames} frames)")
 
 
+def before_after(distances=(3.0, 10.0), step_deg=20.0, edge_a=0.008):
+    """The body's RCS statistics over aspect and pose, A (``edge_a`` mesh, its area-weighted vertex
+    normals, samples on the flat facets: the body before issue 22) against B (the default body: its
+    :data:`MESH_EDGE` mesh with the exact normals of its shapes, refined to its smooth surface with the
+    samples on it, as the engines render it), both rendered by ``tests/smooth_po.body_rcs`` at the
+    resolution rule's pixel step; the aspects interleaved A, B. Per range: mean (linear), median, 10 and
+    90 % (dBsm) and the per-look difference B - A (dB: mean, rms, largest)."""
+    import smooth_po as sp
+    from sionnafmcw.scenes import meshes
+
+    person_a, person_b = WalkingPerson(mesh_edge=edge_a), WalkingPerson(mesh_edge=MESH_EDGE)
+    seg_a = {k: (*person_a.local_meshes[k], meshes.vertex_normals(*person_a.local_meshes[k]))
+             for k in person_a.local_meshes}
+    refined = sp.refined_segments(person_b)
+    seg_b, surface_b = sp.refined_segment_meshes(refined), sp.refined_surface(refined)
+    aspects = np.arange(0.0, 360.0, step_deg)
+    print(f"body RCS, A: {edge_a * 1e3:.0f} mm flat samples, area-weighted normals; B: {MESH_EDGE * 1e3:.0f} mm "
+          f"refined ({sum(len(r.faces) for r in refined.values())} triangles), exact normals, samples on the smooth "
+          f"surface; aspects every {step_deg:g} deg, phases {', '.join(f'{p:.3f}' for p in PHASES)}")
+    t0 = time.perf_counter()
+    for d in distances:
+        a_vals, b_vals = [], []
+        for ph in PHASES:
+            for asp in aspects:
+                a_vals.append(sp.body_rcs(person_a, seg_a, ph, asp, d).total)
+                b_vals.append(sp.body_rcs(person_b, seg_b, ph, asp, d, surface=surface_b).total)
+        a_vals, b_vals = np.array(a_vals), np.array(b_vals)
+        diff = bp.db(b_vals) - bp.db(a_vals)
+        for name, v in (("A", a_vals), ("B", b_vals)):
+            m = stats(v)
+            print(f"  {d:4.0f} m {name}: mean {m[0]:6.2f}  median {m[1]:6.2f}  p10 {m[2]:6.2f}  p90 {m[3]:6.2f} dBsm")
+        print(f"  {d:4.0f} m B - A per look: mean {diff.mean():+.2f} dB, rms {np.sqrt((diff ** 2).mean()):.2f} dB, "
+              f"largest {diff[np.argmax(np.abs(diff))]:+.2f} dB ({len(diff)} looks, {time.perf_counter() - t0:.0f} s)",
+              flush=True)
+
+
 if __name__ == "__main__":
     what = sys.argv[1] if len(sys.argv) > 1 else "aspect"
-    {"convergence": convergence, "aspect": aspect_sweep, "scene": scene_cost}[what]()
+    {"convergence": convergence, "aspect": aspect_sweep, "scene": scene_cost, "ab": before_after}[what]()

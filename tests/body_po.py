@@ -116,9 +116,11 @@ class BodyRCS:
         return self.po + self.diffuse
 
 
-def render_body(vertices, faces, normals, radar, step, fields):
+def render_body(vertices, faces, normals, radar, step, fields, surface=None):
     """:class:`SurfaceSamples` of the body seen from ``radar`` on a grid of ``step`` (rad) covering it,
-    smooth normals with their shape operator. The body must lie towards +x of the radar (azimuths within +-pi/2)."""
+    smooth normals with their shape operator. The body must lie towards +x of the radar (azimuths within +-pi/2).
+    ``surface(triangle, barycentric) -> (points, normals)``: the samples moved onto a smooth surface (as the
+    engines do, :meth:`sionnafmcw.smooth_surface.RefinedSurface.smooth_points`), their rays through them."""
     rel = vertices - radar
     az = np.arctan2(rel[:, 1], rel[:, 0])
     el = np.arctan2(rel[:, 2], np.hypot(rel[:, 0], rel[:, 1]))
@@ -129,9 +131,13 @@ def render_body(vertices, faces, normals, radar, step, fields):
     f = faces[tri[hit]]
     b = bary[hit]
     n, curvature = interpolated_normals(vertices[f], normals[f], b)
-    dirs = d[hit]
+    dirs, dist = d[hit], t[hit]
+    if surface is not None:
+        points, n = surface(tri[hit], b)
+        dist = np.linalg.norm(points - radar, axis=1)
+        dirs = (points - radar) / dist[:, None]
     step_az, step_el = angular_grid_steps(dirs, step, step)
-    return render_samples(radar, dirs, t[hit], n, mesh_render.solid_angles(elg.ravel()[hit], step),
+    return render_samples(radar, dirs, dist, n, mesh_render.solid_angles(elg.ravel()[hit], step),
                           step_az, step_el, triangle=tri[hit], barycentric=b, curvature=curvature, **fields)
 
 

@@ -73,7 +73,8 @@ import importlib
 import inspect
 
 from .base import Engine, FrameStats
-from .errors import EngineError, PathEngineError, PixelEngineError, SceneGeometryError, SceneLoadError
+from .errors import (EngineError, PathEngineError, PixelEngineError, ProxyResolutionWarning, SceneGeometryError,
+                     SceneLoadError)
 
 _REGISTRY: dict[str, object] = {}  # name -> engine class or "module:Class" (imported on first use)
 
@@ -167,5 +168,5 @@ def __getattr__(name):
     raise AttributeError(f"module 'sionnafmcw.engines' has no attribute {name!r}")
 
 
-__all__ = ["Engine", "EngineError", "FrameStats", "PathEngineError", "PixelEngineError", "SceneGeometryError",
-           "SceneLoadError", "create", "engine_class", "names", "options", "register", *_LAZY]
+__all__ = ["Engine", "EngineError", "FrameStats", "PathEngineError", "PixelEngineError", "ProxyResolutionWarning",
+           "SceneGeometryError", "SceneLoadError", "create", "engine_class", "names", "options", "register", *_LAZY]

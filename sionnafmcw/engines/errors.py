@@ -26,4 +26,9 @@ class PixelEngineError(EngineError):
     """The pixel engine cannot run with these parameters or this animation; the message says why."""
 
 
-__all__ = ["EngineError", "PathEngineError", "PixelEngineError", "SceneGeometryError", "SceneLoadError"]
+class ProxyResolutionWarning(UserWarning):
+    """A mesh is coarser than the rule of the traced proxy (:data:`~.path.PROXY_SAGITTA_FRACTION`); the
+    message names the object, by how much, and the edge length that would meet it."""
+
+
+__all__ = ["EngineError", "ProxyResolutionWarning", "PathEngineError", "PixelEngineError", "SceneGeometryError", "SceneLoadError"]

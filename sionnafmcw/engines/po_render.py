@@ -74,7 +74,7 @@ import numpy as np
 from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
 from ..electromagnetics import slab_reflection_coefficients, unit, vertical_polarisation
 from ..physical_optics import (
-    PhysicalOpticsError, SurfaceSamples, angular_grid_steps, footprint_edges, in_sample_factor, interpolated_normals,
+    PhysicalOpticsError, SurfaceSamples, footprint_edges, in_sample_factor, interpolated_normals,
     render_resolution,
 )
 from .loaded_scene import interpolate
@@ -256,12 +256,14 @@ class SceneObject:
             normal = (m / np.linalg.norm(m, axis=-1)[:, None]) @ rot.T
             curvature = np.zeros((len(triangle), 3, 3))
         else:
-            normal, curvature = interpolated_normals(surface.vertices[tri], surface.corner_normals[triangle], bary)
-            if smooth is not None:
-                normal = smooth[1]
-            normal = normal @ rot.T
+            corners, corner_normals = surface.vertices[tri], surface.corner_normals[triangle]
             if not np.array_equal(rot, np.eye(3)):
-                curvature = np.einsum("ij,pjk,lk->pil", rot, curvature, rot)
+                # the construction is rotation-covariant: the turned corners give R n and R K R^T directly
+                corners = (corners.reshape(-1, 3) @ rot.T).reshape(-1, 3, 3)
+                corner_normals = (corner_normals.reshape(-1, 3) @ rot.T).reshape(-1, 3, 3)
+            normal, curvature = interpolated_normals(corners, corner_normals, bary)
+            if smooth is not None:
+                normal = smooth[1] @ rot.T
         if self.vertex_doppler and place.vertex_velocity is not None:
             velocity = interpolate(place.vertex_velocity, tri, w)
         elif self.vertex_doppler and place.motion is not None:
@@ -486,7 +488,10 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     origin = np.asarray(origin, float)
     rotation = np.asarray(rotation, float)
     targets = range(len(objects)) if targets is None else targets
-    dirs, owner, cells = [], [], []
+    # every object's grid as 1-D elevations and azimuths; a ray is (object, elevation, azimuth) indices
+    # into them, its direction built from their sines and cosines (no per-ray trigonometry)
+    els, azs, owner, el_index, az_index, cells = [], [], [], [], [], []
+    n_el_total = n_az_total = 0
     steps = {}
     for k in targets:
         obj = objects[k]
@@ -514,24 +519,34 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
                 f"po_render: object {obj.name!r} ({extent:.2f} m, {r_min:.2f}-{r_max:.2f} m away) needs {n} rays at "
                 f"{step * 1e3:.2f} mrad, more than max_rays_per_object={max_rays_per_object}; lower samples_across "
                 f"({samples_across}) or raise max_rays_per_object")
-        ee, aa = np.meshgrid(el, az, indexing="ij")
-        ee, aa = ee.ravel(), aa.ravel()
-        dirs.append(np.stack([np.cos(ee) * np.cos(aa), np.cos(ee) * np.sin(aa), np.sin(ee)], -1))
+        ei, ai = np.divmod(np.arange(n, dtype=np.int64), az.size)      # row-major: elevation, then azimuth
+        els.append(el)
+        azs.append(az)
+        el_index.append(ei + n_el_total)
+        az_index.append(ai + n_az_total)
+        n_el_total += el.size
+        n_az_total += az.size
         owner.append(np.full(n, k, dtype=np.int64))
-        cells.append(np.tile([d_az, d_el], (n, 1)))
-    num_rays = int(sum(d.shape[0] for d in dirs))
+        cells.append(np.array([d_az, d_el]))
+    num_rays = int(sum(o.size for o in owner))
     if not num_rays:
         return _empty_render(origin, steps, 0)
-    local, owner, cells = np.concatenate(dirs), np.concatenate(owner), np.concatenate(cells)
+    el, az = np.concatenate(els), np.concatenate(azs)
+    ce, se, ca, sa = np.cos(el), np.sin(el), np.cos(az), np.sin(az)
+    ei, ai = np.concatenate(el_index), np.concatenate(az_index)
+    cell = np.repeat(np.stack(cells), [o.size for o in owner], axis=0)
+    owner = np.concatenate(owner)
+    local = np.stack([ce[ei] * ca[ai], ce[ei] * sa[ai], se[ei]], -1)
     valid, _, hit_obj, prim, uv = world.cast(origin, local @ rotation.T, group)
     keep = np.flatnonzero(valid & (hit_obj == owner))   # objects are in the world's order
     if keep.size == 0:
         return _empty_render(origin, steps, num_rays)
-    d_az, d_el = cells[keep, 0], cells[keep, 1]
-    el = np.arcsin(np.clip(local[keep, 2], -1.0, 1.0))
-    solid = d_az * (np.sin(el + d_el / 2) - np.sin(el - d_el / 2))
-    s_az, s_el = angular_grid_steps(local[keep], 1.0, 1.0, rotation)
-    s_az, s_el = s_az * d_az[:, None], s_el * d_el[:, None]
+    d_az, d_el = cell[keep, 0], cell[keep, 1]
+    c_e, s_e, c_a, s_a = ce[ei[keep]], se[ei[keep]], ca[ai[keep]], sa[ai[keep]]
+    solid = d_az * 2.0 * c_e * np.sin(d_el / 2)          # d_az (sin(el + d_el/2) - sin(el - d_el/2))
+    # angular_grid_steps of the kept rays, from their grid angles
+    s_az = (np.stack([-c_e * s_a, c_e * c_a, np.zeros_like(c_e)], -1) * d_az[:, None]) @ rotation.T
+    s_el = (np.stack([-s_e * c_a, -s_e * s_a, c_e], -1) * d_el[:, None]) @ rotation.T
     samples, direction = _samples(objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid, rotation,
                                   wavelength)
     p = samples.num_samples

@@ -77,6 +77,7 @@ class Surface:
     vertex_map: tuple | None = None   # refined surfaces: (input triangle [V'], barycentric weights [V', 3]) per vertex
     mesh_faces: np.ndarray | None = None   # the stored mesh's faces (what the vertex map's triangles index)
     refined: object = None            # the :class:`~sionnafmcw.smooth_surface.RefinedSurface` (None: the mesh itself)
+    mesh_edge: float = 0.0            # the stored mesh's longest edge (m)
 
     def __post_init__(self):
         if self.first_vertices is None:
@@ -114,6 +115,7 @@ class Surface:
         v = np.ascontiguousarray(vertices, dtype=float)
         f = np.ascontiguousarray(faces, dtype=np.int64)
         normals = cls.corner_normals_of(v, f, vertex_normals, crease_angle)
+        mesh_edge = float(np.max(np.linalg.norm(v[f] - v[np.roll(f, 1, axis=1)], axis=-1))) if len(f) else 0.0
         bulge, vertex_map, used, refined = 0.0, None, 1, None
         if (wavelength is not None or level is not None) and len(f) and not flat_shaded(normals):
             sagitta = facet_sagitta(v, f, normals)
@@ -128,7 +130,7 @@ class Surface:
         radius = float(np.max(np.linalg.norm(v - centre, axis=1))) if len(v) else 0.0
         return cls(name, kind, v, f, normals, curvature_radius(v, f, normals), flat_shaded(normals), centre,
                    radius * (1 + 1e-6) + 1e-6, area_centroid(v, f), level=used, bulge=bulge, vertex_map=vertex_map,
-                   mesh_faces=np.ascontiguousarray(faces, dtype=np.int64), refined=refined)
+                   mesh_faces=np.ascontiguousarray(faces, dtype=np.int64), refined=refined, mesh_edge=mesh_edge)
 
     def smooth_points(self, triangle, bary) -> tuple[np.ndarray, np.ndarray] | None:
         """Points and unit normals ``[K, 3]`` (own frame) on the smooth surface at hits ``triangle [K]``,

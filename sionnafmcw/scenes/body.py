@@ -34,30 +34,33 @@ half-axes), scaled with H. Each segment is one closed mesh and one object:
 
 Mesh resolution
 ---------------
-Every triangle edge is at most ``mesh_edge`` (:data:`MESH_EDGE` = 8 mm by default;
-:func:`.meshes.ellipsoid_grid`, :func:`.meshes.capsule_divisions`), and the smooth vertex normals
-(:func:`.meshes.vertex_normals`, turned with each segment: :attr:`SegmentState.vertex_normals`)
-go to the PLYs for the renderer to interpolate. At 77 GHz (:math:`\lambda` = 3.9 mm) physical
-optics needs the facets to follow the skin to a fraction of a wavelength: the UV grid step
-:math:`e/\sqrt2` = 5.7 mm leaves a sagitta :math:`h^2/8\rho` of 0.11 mm on the forearm
-(:math:`\rho` = 36 mm), below :math:`\lambda/25` = 0.16 mm, and less on every larger limb.
-The default comes from the convergence of the body's monostatic PO + diffuse RCS (gait phase 0,
-radar 1 m high; ``benchmarks/body_rcs.py convergence``): change against 4 mm edges (768k triangles),
-dB, at 3 m / 10 m and aspects 0, 30, 90, 150, 180 deg:
+Every triangle edge is at most ``mesh_edge`` (:data:`MESH_EDGE` = 32 mm by default) and no grid step
+turns the normal by more than :data:`MAX_NORMAL_TURN` = 0.6 rad (:func:`.meshes.ellipsoid_grid`,
+:func:`.meshes.capsule_divisions`: the foot's toe and heel, of 9 mm radius, get steps of 5 mm); the
+PLYs carry the exact normals of the ellipsoids and capsules (:func:`segment_normals`, turned with each
+segment: :attr:`SegmentState.vertex_normals`). The mesh is not what physical optics integrates: the
+engines rebuild the smooth surface those normals describe (curved PN triangles refined to
+:math:`\lambda/25`, :mod:`sionnafmcw.smooth_surface`) and put their samples on it, so the mesh need
+only carry the shape's positions and normals; Sionna traces the mesh as stored for the diffuse paths
+(within 2.3 mm of the skin, 1/8 of a 4 GHz range bin: :mod:`sionnafmcw.engines.path`). The body's
+PO RCS at the convergence study's looks (gait phase 0, radar 1 m high, pixel step a quarter of the
+rule's; ``benchmarks/smooth_surface.py walker``) against the body on its exact shapes, dB, at 3 m /
+10 m and aspects 0, 30, 90, 150, 180 deg:
 
-==========  =========  ============================================  ==========
-edge (mm)   triangles  change at 3 m (0/30/90/150/180 deg)           max abs dB
-==========  =========  ============================================  ==========
-32          12 008     +0.6 / +2.5 / -3.3 / -9.0 / +1.7              9.0
-16          47 742     -1.0 / -2.9 / +3.2 / -0.8 / +1.9              3.4
-12          85 552     -0.5 / -1.8 / -1.3 / -0.1 / +1.9              2.8
-8           191 276    -0.1 / -0.1 / +0.0 / +0.3 / +0.5              0.9
-6           341 556    -0.1 / -0.0 / +0.5 / -0.0 / +0.3              0.5
-==========  =========  ============================================  ==========
+=====================================  =========  ===============================================  ==========
+body                                   triangles  error at 3 m (0/30/90/150/180 deg)               max abs dB
+=====================================  =========  ===============================================  ==========
+32 mm as rendered (refined, smooth)    175 868    +0.06 / -0.66 / -0.08 / +0.10 / +0.07            0.66
+32 mm, area-weighted mesh normals      175 868    -0.02 / -3.12 / -0.16 / +0.34 / +0.14            5.39
+32 mm flat facets (no refinement)      12 348     +1.30 / +5.80 / +10.64 / -10.62 / +1.85          14.57
+16 mm as rendered                      293 768    +0.09 / -0.45 / +0.15 / +0.08 / -0.06            0.45
+8 mm flat facets (the former default)  191 276    -0.17 / -0.94 / -0.59 / +0.02 / +0.99            1.07
+=====================================  =========  ===============================================  ==========
 
-(the max column covers both ranges). Coarser meshes (``mesh_edge`` up to 0.2 m, e.g. the former
-2-4 cm facets, 5-12k triangles) still serve the path engine's diffuse model, whose
-``scattering_coefficient`` stands in for the curvature (:mod:`sionnafmcw.engines.path`).
+(the max column covers both ranges; tests/test_body_rcs.py holds the default within 1 dB of the
+exact shapes at all ten looks). Without the smooth surface a body needs 8 mm facets (191k
+triangles written every frame before the rigid contract) to come within 1 dB; the stored 32 mm mesh
+is 12k triangles, written once.
 
 Kinematic chain
 ---------------
@@ -116,7 +119,7 @@ VELOCITY_STEP = 1e-5
 
 #: Default largest triangle edge (m) of the body meshes, from the PO convergence study
 #: (module docstring, *Mesh resolution*).
-MESH_EDGE = 0.008
+MESH_EDGE = 0.032
 #: Largest turn (rad) of the surface normal over one grid step of a segment mesh (module docstring,
 #: *Mesh resolution*): where a segment's radius of curvature :math:`\rho` is small (the foot's toe and
 #: heel, :math:`\rho` = 9 mm) its steps are kept to :math:`\psi_{max}\rho` whatever the edge length.

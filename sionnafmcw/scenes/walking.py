@@ -23,9 +23,12 @@ meshes and kinematic chain, :mod:`.body`), every segment a separate rigid skin o
     Towards (or away from) a radar on the track, starting ``start_range`` metres in front of it
     with a ``lateral_offset`` to the side, at ``speed`` (default 1.4 m/s, a normal walk).
 
-The body meshes have triangle edges of at most ``body_mesh_edge`` (default
-:data:`~.body.MESH_EDGE`, from the physical-optics convergence study of the body's RCS at 77 GHz,
-``benchmarks/body_rcs.py``); each segment's PLY carries its smooth vertex normals.
+The body is 13 rigid segments, each written once (``meshes/<segment>.ply``, triangle edges of at most
+``body_mesh_edge``, default :data:`~.body.MESH_EDGE` = 32 mm, with the exact normals of its shape) and
+placed per frame by its ``to_world`` with its linear and angular velocity in the manifest
+(``docs/data_contract.md``): the 100-frame circle walk is 2.4 MB. The engines render the smooth
+surface those normals describe (:mod:`sionnafmcw.smooth_surface`); the body's RCS is within 0.7 dB of
+its exact shapes (:mod:`.body`, *Mesh resolution*).
 
 Both put the scene in a closed room (``room=True``, ITU concrete walls, floorboard floor,
 plasterboard ceiling, valid at 77 GHz) large enough for the walk plus ``room_margin``.
@@ -51,8 +54,9 @@ _PERSON = {
     "rv_max": Parameter(RV_MAX, float, "1/s", "largest relative velocity V/H_t that shapes the gait (Boulic: 3)",
                         low=0.1, high=RV_MAX),
     "skin_scattering": Parameter(0.3, float, "", "diffuse scattering coefficient of the skin", low=0.0, high=1.0),
-    "body_mesh_edge": Parameter(MESH_EDGE, float, "m", "largest triangle edge of the body meshes (default from the "
-                                "PO convergence study at 77 GHz; coarser meshes write smaller PLYs)", low=0.002, high=0.1),
+    "body_mesh_edge": Parameter(MESH_EDGE, float, "m", "largest triangle edge of the body meshes (the engines render "
+                                "their smooth surface; the default is within 0.7 dB of the exact body at 77 GHz)",
+                                low=0.002, high=0.1),
 }
 _ROOM = {
     "room": Parameter(True, bool, "", "put the walk in a closed room (walls, floor, ceiling)"),
