@@ -12,11 +12,14 @@ Modules: :mod:`.registry` (names, parameters, atomic build), :mod:`.meshes` (clo
 meshes), :mod:`.writer` (frames, PLYs, materials), :mod:`.room` (a closed room),
 :mod:`.simple` (``moving_plate``, ``corner_reflectors``, ``empty_room``), :mod:`.gait` (the
 Boulic-Thalmann walking model), :mod:`.body` (body segments, kinematic chain, analytic truth),
-:mod:`.walking` (``circle_walk``, ``straight_walk``).
+:mod:`.walking` (``circle_walk``, ``straight_walk``), :mod:`.vitals` (breathing, heartbeat, postural
+sway), :mod:`.activities` (run, sit down / stand up, wave, jump, fall, pick up, stand still, vital
+signs, any shipped motion-capture clip: :mod:`sionnafmcw.mocap`).
 """
 
 from .registry import Parameter, build, describe, names, parameters, parse_params, parse_value  # noqa: F401
 from . import simple  # noqa: F401,E402  (registers the simple scenarios)
 from . import walking  # noqa: F401,E402  (registers the walking scenarios)
+from . import activities  # noqa: F401,E402  (registers the activity library)
 
 __all__ = ["Parameter", "build", "describe", "names", "parameters", "parse_params", "parse_value"]
