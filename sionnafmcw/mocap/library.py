@@ -10,19 +10,20 @@ Units: :data:`~.skeleton.CMU_UNIT` m per BVH unit; 120 frames per second; frame 
 an added T-pose, so motion starts at frame 1 (:class:`~.person.MocapPerson`'s default start).
 
 ==========  ============  ===========================================================================
-clip        activity      what happens (30 fps frames of the whole clip)
+clip        activity      what happens (clip seconds; the CMU unit, the subjects' own size)
 ==========  ============  ===========================================================================
-``08_10``   walk          walks 3.7 m forward at about 1.6 m/s (subject 8)
-``09_01``   run           runs 4.3 m forward at 3.3-3.9 m/s (subject 9)
-``111_10``  stand up      seated until about 1.1 s, rises (pelvis up at up to 0.9 m/s) by 1.6 s,
-                          then steps forward (subject 111)
-``111_37``  wave          stands and waves (pelvis still; subject 111)
-``75_10``   jump          stands, then one long jump forward at about 1.9 s (take-off 5.9 m/s
-                          horizontal, 3.3 m/s up; subject 75)
-``90_18``   fall          stands until about 0.8 s, a rug is pulled: falls backwards to the floor
-                          (pelvis down at up to 3.9 m/s) by 1.3 s, lies still (subject 90)
-``115_06``  pick up       bends the knees to pick up a box (pelvis down to 0.55 m at about 1.5 s)
-                          and stands up again (subject 115)
+``08_10``   walk          walks 3.7 m forward, pelvis at about 1.6 m/s (subject 8)
+``09_01``   run           runs 4.3 m forward, pelvis at 3.3-4.2 m/s, limbs up to 8.3 m/s (subject 9)
+``111_10``  stand up      seated (pelvis 0.5 m up) until about 0.9 s, rises by 1.5 s (pelvis up at up
+                          to 1.5 m/s at 1.3 s), then steps forward (subject 111)
+``111_37``  wave          stands still and waves (hands up to 1.1 m/s; subject 111)
+``75_10``   jump          stands, one long jump forward: take-off at about 1.45 s (pelvis 6.2 m/s
+                          forward, 4.8 m/s up), landing at 1.74 s (5.0 m/s down); limbs up to 11 m/s
+                          (subject 75)
+``90_18``   fall          stands until about 0.8 s, a rug is pulled: falls backwards (pelvis down at
+                          up to 4.0 m/s at 1.0 s), lies on the floor from 1.1 s (subject 90)
+``115_06``  pick up       bends the knees (pelvis down at up to 1.6 m/s at 0.65 s, to 0.55 m at 0.8 s)
+                          to pick up a box and stands up again (subject 115)
 ==========  ============  ===========================================================================
 
 :data:`POSTURES`: still postures for :class:`~.person.PosedPerson` -- ``standing`` (``90_18`` at

@@ -16,7 +16,7 @@ builder          motion source
 ``sit_down``     CMU ``111_10`` (get up from chair, subject 111) played backwards from 2.0 s: a captured
                  stand-up reversed in time, not a captured sit-down (a sit-down is slower at the end,
                  where the seat stops the body; the reversal keeps the stand-up's speeds)
-``stand_up``     CMU ``111_10``, 0 to 2.0 s (seated, rises at about 1.0-1.4 s, stands)
+``stand_up``     CMU ``111_10``, 0 to 2.0 s (seated, rises at about 0.9-1.5 s, stands)
 ``wave``         CMU ``111_37`` (wave, subject 111)
 ``jump``         CMU ``75_10`` (jump, subject 75): stands, one long jump forward
 ``fall``         CMU ``90_18`` (rug-pull fall, subject 90): stands, falls backwards, lies on the floor
