@@ -33,8 +33,9 @@ The captured clips are scaled uniformly so that the skeleton's stature (from its
 :func:`~sionnafmcw.mocap.body.leg_stature`) is ``person_height``: lengths and speeds scale with it,
 the timing does not. The person starts at ``(x, y)`` facing ``heading``; the radar stands
 ``radar_distance`` metres from that point in the direction ``heading + radar_azimuth``
-(``radar_azimuth`` = 0: in front, pi: behind), ``radar_height`` up, looking horizontally at it
-(:func:`~sionnafmcw.mocap.scene.radar_in_front`). For ``stand_still`` and ``vital_signs`` the radar
+(``radar_azimuth`` = 0: in front, pi: behind), ``radar_height`` up, its boresight through the point
+``radar_target_height`` above the start position (level by default; lower for a radar looking down
+from a wall or the ceiling, as fall detectors do). For ``stand_still`` and ``vital_signs`` the radar
 looks at the chest instead, from ``radar_distance`` along the chest's outward normal (in front of a
 sitting or standing person, above a lying one). Acknowledgement for the CMU clips:
 :data:`sionnafmcw.mocap.library.ACKNOWLEDGEMENT`.
@@ -65,12 +66,17 @@ _PERSON = {
     "y": Parameter(0.0, float, "m", "start position of the person, y", low=-20.0, high=20.0),
     "heading": Parameter(0.0, float, "rad", "facing direction at frame 0 (from +x towards +y)",
                          low=-2 * math.pi, high=2 * math.pi),
-    "radar_azimuth": Parameter(0.0, float, "rad", "direction of the radar from the person, from the heading "
-                               "(0: in front, pi: behind)", low=-2 * math.pi, high=2 * math.pi),
-    "radar_height": Parameter(1.0, float, "m", "radar height above the floor", low=0.1, high=5.0),
     "skin_scattering": Parameter(0.3, float, "", "diffuse scattering coefficient of the skin", low=0.0, high=1.0),
     "body_mesh_edge": Parameter(MESH_EDGE, float, "m", "largest triangle edge of the body meshes",
                                 low=0.002, high=0.1),
+}
+_RADAR = {
+    "radar_azimuth": Parameter(0.0, float, "rad", "direction of the radar from the person, from the heading "
+                               "(0: in front, pi: behind)", low=-2 * math.pi, high=2 * math.pi),
+    "radar_height": Parameter(1.0, float, "m", "radar height above the floor", low=0.1, high=5.0),
+    "radar_target_height": Parameter(1.0, float, "m", "height above the start position of the point the boresight "
+                                     "passes through (equal to radar_height: level; lower: looking down)",
+                                     low=0.0, high=5.0),
 }
 _ROOM = {
     "room": Parameter(False, bool, "", "put the person and the radar in a closed room (walls, floor, ceiling)"),
@@ -147,6 +153,7 @@ def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=Non
     person = mocap_person(clip_name, p, start, end, reverse)
     radar, target = radar_in_front((p["x"], p["y"]), p["heading"] + p["radar_azimuth"], p["radar_distance"],
                                    p["radar_height"])
+    target[2] = p["radar_target_height"]
     box, opts = _room_box([(person, "")], radar, p)
     extra = {"activity": {"name": activity, "motion_source": f"CMU Graphics Lab Motion Capture Database, clip "
                           f"{clip_name}" + (" played backwards" if reverse else ""),
@@ -157,7 +164,7 @@ def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=Non
 
 
 def _mocap_params(radar_distance: float) -> dict:
-    return {**_PERSON, "radar_distance": _radar_distance(radar_distance), **_CLIP_TIME, **_ROOM}
+    return {**_PERSON, "radar_distance": _radar_distance(radar_distance), **_RADAR, **_CLIP_TIME, **_ROOM}
 
 
 def _register_mocap(name, doc, radar_distance, reverse=False):
@@ -208,9 +215,10 @@ _VITALS = {
                                  low=HEART_AMPLITUDE[0], high=HEART_AMPLITUDE[1]),
 }
 _STILL_TIME = {
-    "num_frames": Parameter(300, int, "", "number of frames", low=1, high=1_000_000),
-    "fps": Parameter(10.0, float, "1/s", "frame rate (the vital signs are sampled once per frame)",
-                     low=1.0, high=1000.0),
+    "num_frames": Parameter(750, int, "", "number of frames (default 30 s)", low=1, high=1_000_000),
+    "fps": Parameter(25.0, float, "1/s", "frame rate: the chest's phase is sampled once per frame and must turn by "
+                     "less than pi between frames to be unwrapped (breathing at 0.5 Hz and 12 mm needs > 19.3 fps at "
+                     "77 GHz)", low=1.0, high=1000.0),
 }
 #: Default postural sway (m RMS at the centre of mass) per posture (:mod:`.vitals`).
 SWAY_DEFAULT = {"standing": 0.004, "sitting": 0.001, "lying": 0.0}
