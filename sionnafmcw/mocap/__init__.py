@@ -4,7 +4,7 @@ Two routes make the same animation directory (layout: :mod:`sionnafmcw.animation
 
 * **numpy** (any machine): :mod:`.bvh` parses the file (errors name the file and line),
   :mod:`.skeleton` computes the forward kinematics (BVH's channel order and intrinsic Euler
-  convention, slerp between frames, Y-up file units to Z-up metres), :mod:`.body` binds the segment
+  convention, slerp between frames, Y-up file units to Z-up metres), :mod:`.segments` binds the segment
   body to the skeleton (one rigid skin mesh per bone, tapered limbs sized from anthropometry:
   :mod:`.anatomy`), :mod:`.person` places it and gives each segment's rigid motion per frame,
   :mod:`.scene` writes it (several people under name prefixes, a radar, a room);

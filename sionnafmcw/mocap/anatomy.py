@@ -27,7 +27,7 @@ chest width         0.1685  0.1583  at the nipples (a diameter)
 A girth :math:`G` becomes a circular section of radius :math:`G/2\pi` (limbs) or an elliptic one
 (torso) of semi-axes :math:`(a, b)` with the chest's depth:width ratio :math:`a/b` and the perimeter
 :math:`G` (Ramanujan's formula, :func:`sionnafmcw.scenes.meshes.ellipse_perimeter`). Lengths
-along the limbs come from the skeleton (:mod:`.body`); the hand (0.108 H wrist to fingertip), the
+along the limbs come from the skeleton (:mod:`.segments`); the hand (0.108 H wrist to fingertip), the
 foot (0.152 H long, the ankle 0.039 H above the sole and 0.031 H in front of the heel) and the
 head follow D. A. Winter, *Biomechanics and Motor Control of Human Movement*, 4th ed., 2009,
 Fig. 4.1, as :mod:`sionnafmcw.scenes.body` does.

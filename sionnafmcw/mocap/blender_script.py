@@ -17,7 +17,7 @@ Steps, all in a factory-empty scene:
    between two keys would make the linear interpolation swing through the far side). The
    armature object gets the placement matrix.
 2. With the armature at rest, every body segment (its vertices in the world at rest, from
-   :class:`~sionnafmcw.mocap.body.SegmentBody`) becomes a smooth-shaded mesh object parented to its
+   :class:`~sionnafmcw.mocap.segments.SegmentBody`) becomes a smooth-shaded mesh object parented to its
    bone (``parent_type='BONE'``) with the parent inverse of the bone's rest matrix: weighted fully
    to that bone, it follows the bone rigidly. Material ``skin`` with the radio material
    ``{"skin": "dry", "scattering_coefficient": s}``.

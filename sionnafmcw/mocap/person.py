@@ -1,6 +1,6 @@
 r"""A person in an animation: the segment body on a moving skeleton, placed in the world, frame by frame.
 
-:class:`MocapPerson` drives the :class:`~.body.SegmentBody` with a BVH clip (the numpy route:
+:class:`MocapPerson` drives the :class:`~.segments.SegmentBody` with a BVH clip (the numpy route:
 parser, forward kinematics and interpolation of :mod:`.skeleton`, no Blender);
 :class:`PosedPerson` holds one posture of a clip and moves it with small parametric motions
 (postural sway, breathing, heartbeat: :mod:`sionnafmcw.scenes.vitals`). Both give, per frame,
@@ -40,7 +40,7 @@ import math
 import numpy as np
 
 from ..animation.rigid import RigidMotion, angular_velocity, area_centroid, transform_matrix
-from .body import SegmentBody
+from .segments import SegmentBody
 from .bvh import BvhClip
 from .skeleton import CMU_UNIT, Y_UP_TO_Z_UP, ClipMotion, placement_matrix
 
@@ -143,7 +143,7 @@ class MocapPerson(_Person):
     position, heading : the start pose on the floor (m) and the facing direction (rad).
     floor : bool
         Put the lowest skin point over the animation on z = 0.
-    height, build, mesh_edge : the body (:class:`~.body.SegmentBody`).
+    height, build, mesh_edge : the body (:class:`~.segments.SegmentBody`).
     velocity_step : float
         Half-width :math:`h` of the velocity differences, frames.
     """

@@ -1,7 +1,7 @@
 r"""Forward kinematics of a BVH skeleton, its motion interpolated in time, in the simulator's world frame.
 
-BVH conventions (exactly those of the Biovision format and of Blender's importer)
--------------------------------------------------------------------------------
+BVH conventions (those of the Biovision format and of Blender's importer)
+--------------------------------------------------------------------------
 Joint :math:`j` with parent :math:`p` is placed in its parent's frame by a translation
 :math:`\mathbf t_j` and a rotation :math:`\mathbf R_j`:
 
@@ -28,7 +28,7 @@ BVH -Z forward becomes +y: Blender's importer default, ``axis_forward='-Z', axis
 Rotations follow as :math:`\mathbf A\mathbf R\mathbf A^T`. A joint's *frame* in the world is then
 :math:`(\mathbf A\mathbf R^W_j\mathbf A^T, s\mathbf A\mathbf o^W_j)`: at rest (all rotations zero) its
 axes are the world axes, so a body segment can be built in world-aligned coordinates around the
-joint (:mod:`.body`).
+joint (:mod:`.segments`).
 
 Interpolation in time
 ---------------------

@@ -10,7 +10,7 @@ Modules: :mod:`.windows` (unit-sum windows), :mod:`.fast_time` (range), :mod:`.c
 :mod:`.slow_time` (Doppler), :mod:`.rdmap` (range-Doppler), :mod:`.mimo` (virtual channels, TDM
 phase; the array geometry itself is :mod:`sionnafmcw.array`), :mod:`.angle` (angle FFT, Bartlett, range-azimuth), :mod:`.cfar`, :mod:`.peaks`
 (sub-bin interpolation), :mod:`.micro_doppler` (Doppler track, spectrogram),
-:mod:`.point_cloud`, :mod:`.vitals` (breathing and heart rate from the chest bin's phase).
+:mod:`.point_cloud`, :mod:`sionnafmcw.processing.vitals` (breathing and heart rate from the chest bin's phase).
 """
 
 from .angle import (AngleSpectrum, RangeAzimuthMap, angle_fft, bartlett_spectrum, estimate_direction,

@@ -11,8 +11,8 @@ r"""Scene builders: animation directories (layout: :mod:`sionnafmcw.animation`) 
 Modules: :mod:`.registry` (names, parameters, atomic build), :mod:`.meshes` (closed triangle
 meshes), :mod:`.writer` (frames, PLYs, materials), :mod:`.room` (a closed room),
 :mod:`.simple` (``moving_plate``, ``corner_reflectors``, ``empty_room``), :mod:`.gait` (the
-Boulic-Thalmann walking model), :mod:`.body` (body segments, kinematic chain, analytic truth),
-:mod:`.walking` (``circle_walk``, ``straight_walk``), :mod:`.vitals` (breathing, heartbeat, postural
+Boulic-Thalmann walking model), :mod:`.segments` (body segments, kinematic chain, analytic truth),
+:mod:`.walking` (``circle_walk``, ``straight_walk``), :mod:`sionnafmcw.scenes.vitals` (breathing, heartbeat, postural
 sway), :mod:`.activities` (run, sit down / stand up, wave, jump, fall, pick up, stand still, vital
 signs, any shipped motion-capture clip: :mod:`sionnafmcw.mocap`).
 """

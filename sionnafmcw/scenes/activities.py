@@ -2,35 +2,35 @@ r"""The activity library: a person doing what radar data sets are made to recogn
 
 Every builder is registered in :mod:`.registry` with typed, bounded parameters (a data-set spec
 draws them between their ``low`` and ``high``) and documents its motion source. The body is the
-segment body of :mod:`sionnafmcw.mocap.body` (tapered limbs and torso ellipsoids sized from the
+segment body of :mod:`sionnafmcw.mocap.segments` (tapered limbs and torso ellipsoids sized from the
 skeleton, girths of Heinz et al. 2003), every segment a rigid skin object; the people are written by
 :func:`sionnafmcw.mocap.scene.write_people`, whose per-person name prefix lets later builders put
 several people in one scene.
 
-===============  ==========================================================================================
-builder          motion source
-===============  ==========================================================================================
-``circle_walk``  parametric: the Boulic-Thalmann gait (:mod:`.walking`)
+==================  ======================================================================================
+builder             motion source
+==================  ======================================================================================
+``circle_walk``,    parametric: the Boulic-Thalmann gait (:mod:`.walking`)
 ``straight_walk``
-``run``          CMU ``09_01`` (run, subject 9), motion capture
-``sit_down``     CMU ``111_10`` (get up from chair, subject 111) played backwards from 2.0 s: a captured
-                 stand-up reversed in time, not a captured sit-down (a sit-down is slower at the end,
-                 where the seat stops the body; the reversal keeps the stand-up's speeds)
-``stand_up``     CMU ``111_10``, 0 to 2.0 s (seated, rises at about 0.9-1.5 s, stands)
-``wave``         CMU ``111_37`` (wave, subject 111)
-``jump``         CMU ``75_10`` (jump, subject 75): stands, one long jump forward
-``fall``         CMU ``90_18`` (rug-pull fall, subject 90): stands, falls backwards, lies on the floor
-``pick_up``      CMU ``115_06`` (picking a box up, bending the knees, subject 115)
-``mocap_clip``   any shipped CMU clip (``clip``)
-``stand_still``  posture: CMU ``90_18`` at 0.2 s (standing); motion: parametric postural sway and the
-                 chest wall's breathing and heartbeat (:mod:`.vitals`)
-``vital_signs``  posture: standing, sitting (CMU ``111_10`` at 0.3 s) or lying (CMU ``90_18`` at
-                 3.2 s); motion: breathing and heartbeat drawn per item within the physiological
-                 ranges, and a small postural sway
-===============  ==========================================================================================
+``run``             CMU ``09_01`` (run, subject 9), motion capture
+``sit_down``        CMU ``111_10`` (get up from chair, subject 111) played backwards from 2.0 s: a captured
+                    stand-up reversed in time, not a captured sit-down (a sit-down is slower at the end,
+                    where the seat stops the body; the reversal keeps the stand-up's speeds)
+``stand_up``        CMU ``111_10``, 0 to 2.0 s (seated, rises at about 0.9-1.5 s, stands)
+``wave``            CMU ``111_37`` (wave, subject 111)
+``jump``            CMU ``75_10`` (jump, subject 75): stands, one long jump forward
+``fall``            CMU ``90_18`` (rug-pull fall, subject 90): stands, falls backwards, lies on the floor
+``pick_up``         CMU ``115_06`` (picking a box up, bending the knees, subject 115)
+``mocap_clip``      any shipped CMU clip (``clip``)
+``stand_still``     posture: CMU ``90_18`` at 0.2 s (standing); motion: parametric postural sway and the
+                    chest wall's breathing and heartbeat (:mod:`sionnafmcw.scenes.vitals`)
+``vital_signs``     posture: standing, sitting (CMU ``111_10`` at 0.3 s) or lying (CMU ``90_18`` at
+                    3.2 s); motion: breathing and heartbeat drawn per item within the physiological
+                    ranges, and a small postural sway
+==================  ======================================================================================
 
 The captured clips are scaled uniformly so that the skeleton's stature (from its legs,
-:func:`~sionnafmcw.mocap.body.leg_stature`) is ``person_height``: lengths and speeds scale with it,
+:func:`~sionnafmcw.mocap.segments.leg_stature`) is ``person_height``: lengths and speeds scale with it,
 the timing does not. The person starts at ``(x, y)`` facing ``heading``; the radar stands
 ``radar_distance`` metres from that point in the direction ``heading + radar_azimuth``
 (``radar_azimuth`` = 0: in front, pi: behind), ``radar_height`` up, its boresight through the point
@@ -120,7 +120,7 @@ def _room_box(people, radar_position, p):
 def mocap_person(clip_name: str, p: dict, start=None, end=None, reverse: bool = False):
     """The :class:`~sionnafmcw.mocap.person.MocapPerson` of an activity's parameters ``p`` on the shipped
     clip ``clip_name`` between clip times ``start`` and ``end`` (None: the clip's usable ends)."""
-    from ..mocap.body import leg_stature
+    from ..mocap.segments import leg_stature
     from ..mocap.library import load_clip
     from ..mocap.person import MocapPerson
     from ..mocap.skeleton import CMU_UNIT, ClipMotion
@@ -220,13 +220,13 @@ _STILL_TIME = {
                      "less than pi between frames to be unwrapped (breathing at 0.5 Hz and 12 mm needs > 19.3 fps at "
                      "77 GHz)", low=1.0, high=1000.0),
 }
-#: Default postural sway (m RMS at the centre of mass) per posture (:mod:`.vitals`).
+#: Default postural sway (m RMS at the centre of mass) per posture (:mod:`sionnafmcw.scenes.vitals`).
 SWAY_DEFAULT = {"standing": 0.004, "sitting": 0.001, "lying": 0.0}
 
 
 def still_person(p: dict, posture: str):
     """``(PosedPerson, VitalSigns)`` of a still person's parameters ``p`` (``stand_still``, ``vital_signs``)."""
-    from ..mocap.body import leg_stature
+    from ..mocap.segments import leg_stature
     from ..mocap.library import POSTURES, load_clip
     from ..mocap.person import PosedPerson
     from ..mocap.skeleton import CMU_UNIT, ClipMotion
