@@ -123,7 +123,7 @@ def bvh_to_animation(bvh, out, route: str = "numpy", fps: float = 30.0, num_fram
                               for i in range(0, person.num_frames, max(1, person.num_frames // 8))])
         box = room_around(np.vstack([pts, radar_position[None]]), room_margin, 3.0)
     source = {"bvh": str(Path(bvh).resolve()), "route": route, "start_s": person.start, "unit_m": unit,
-              "stature_m": person.body.height, "build": build}
+              "stature_m": person.body.height, "build": build}   # the Blender route writes the same "mocap" entry
     out = Path(out)
     if route == "blender":
         from .blender_route import export_with_blender
@@ -132,7 +132,7 @@ def bvh_to_animation(bvh, out, route: str = "numpy", fps: float = 30.0, num_fram
                                    skin_scattering=skin_scattering, room_box=box, python=python, timeout=timeout)
     with atomic_directory(out, replace=True) as tmp:
         write_people(tmp, [(person, "")], radar_position, orientation, skin_scattering, room_box=box,
-                     extra={"source": source})
+                     extra={"mocap": source})
     return out
 
 

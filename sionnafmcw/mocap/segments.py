@@ -163,9 +163,6 @@ class SegmentBody:
                     return k
         return kids[0] if len(kids) == 1 else None
 
-    def _length(self, a, b) -> float:
-        return float(np.linalg.norm(self.rest[b] - self.rest[a]))
-
     def _stature(self) -> float:
         h = leg_stature(self.motion)
         if h is None:
