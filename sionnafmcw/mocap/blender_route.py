@@ -99,6 +99,14 @@ def export_with_blender(person, bvh, out, radar_position, radar_orientation, ski
     data = json.loads(manifest.read_text())
     data["mocap"] = {"bvh": str(Path(bvh).resolve()), "route": "blender", "start_s": person.start,
                      "unit_m": person.motion.unit, "stature_m": person.body.height, "build": person.body.build}
+    # the person's labels as the numpy route writes them (its keypoints: the routes agree on every vertex)
+    from ..animation.people import people_entry
+    from ..scenes.keypoints import KEYPOINTS
+    from ..scenes.people import clip_label
+
+    data["people"] = people_entry(KEYPOINTS, [{"name": "person0", "prefix": "", "objects": person.segment_names,
+                                               "activity": clip_label(str(bvh)), "height_m": person.body.height,
+                                               "build": person.body.build, "keypoints": person.keypoints()}])
     manifest.write_text(json.dumps(data, indent=1))
     return out
 

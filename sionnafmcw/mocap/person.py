@@ -120,6 +120,30 @@ class _Person:
         poses = self.poses(np.array([frame / self.fps]))
         return {k: s.vertices @ poses[k][0][0].T + poses[k][1][0] for k, s in self.body.segments.items()}
 
+    def keypoint_anchors(self) -> dict:
+        """``{keypoint: (segment, offset [3])}`` (:mod:`sionnafmcw.scenes.keypoints`)."""
+        from ..scenes.keypoints import segment_body_anchors
+
+        return segment_body_anchors(self.body)
+
+    def keypoints(self, frames=None) -> np.ndarray:
+        """World keypoints ``[N, K, 3]`` (m) of the frames (default all), in
+        :data:`~sionnafmcw.scenes.keypoints.KEYPOINTS` order; NaN where the body has no such joint."""
+        from ..scenes.keypoints import keypoint_positions
+
+        frames = np.arange(self.num_frames) if frames is None else np.atleast_1d(np.asarray(frames, int))
+        return keypoint_positions(self.poses(frames / self.fps), self.keypoint_anchors())
+
+    def footprints(self, frames=None) -> tuple[np.ndarray, np.ndarray]:
+        """Footprint discs ``(centres [N, 2], radii [N])`` (m) of the frames (default all): the body's
+        horizontal extent (:func:`sionnafmcw.scenes.layout.person_footprints`)."""
+        from ..scenes.layout import person_footprints, segment_capsules
+
+        frames = np.arange(self.num_frames) if frames is None else np.atleast_1d(np.asarray(frames, int))
+        if "_capsules" not in self.__dict__:
+            self._capsules = segment_capsules({k: s.vertices for k, s in self.body.segments.items()})
+        return person_footprints(self.poses(frames / self.fps), self._capsules)
+
 
 class MocapPerson(_Person):
     """The segment body moving with a BVH clip (the numpy route; module docstring).
@@ -261,6 +285,35 @@ class PosedPerson(_Person):
         return poses
 
 
+class WalkerPerson(_Person):
+    """A :class:`~sionnafmcw.scenes.body.WalkingPerson` (the parametric Boulic-Thalmann walker) with the
+    interface of :class:`MocapPerson` (``body.segments``, :meth:`poses` at many times, velocities by
+    central differences over :data:`~sionnafmcw.scenes.body.VELOCITY_STEP` = 10 us, as the walker's own
+    truth), so that :func:`~sionnafmcw.mocap.scene.write_people` writes it among other people."""
+
+    def __init__(self, walker, fps: float, num_frames: int):
+        from types import SimpleNamespace
+
+        from ..scenes.body import VELOCITY_STEP
+
+        self.walker = walker
+        self.fps, self.num_frames = float(fps), int(num_frames)
+        self.velocity_step = VELOCITY_STEP * self.fps          # frames
+        segs = {k: SimpleNamespace(vertices=v, faces=f, normals=walker.local_normals[k])
+                for k, (v, f) in walker.local_meshes.items()}
+        self.body = SimpleNamespace(segments=segs, names=list(segs), height=walker.height)
+
+    def poses(self, times) -> dict:
+        times = np.atleast_1d(np.asarray(times, float))
+        each = [self.walker.poses(float(t)) for t in times]
+        return {k: (np.stack([p[k][0] for p in each]), np.stack([p[k][1] for p in each])) for k in each[0]}
+
+    def keypoint_anchors(self) -> dict:
+        from ..scenes.keypoints import walker_anchors
+
+        return walker_anchors(self.walker)
+
+
 def add_person(writer, person: _Person, prefix: str = "", material: str | None = None):
     """Declare ``person``'s segments as rigid objects ``prefix + segment`` of ``writer`` (an
     :class:`~sionnafmcw.scenes.writer.AnimationWriter` with the material declared, default the skin
@@ -288,4 +341,4 @@ def add_person(writer, person: _Person, prefix: str = "", material: str | None =
     return rigid_at
 
 
-__all__ = ["MocapPerson", "PosedPerson", "VELOCITY_STEP_FRAMES", "add_person"]
+__all__ = ["MocapPerson", "PosedPerson", "VELOCITY_STEP_FRAMES", "WalkerPerson", "add_person"]

@@ -49,11 +49,22 @@ def radar_orientation(radar_position, target=None, orientation=None) -> np.ndarr
 
 
 def write_people(out, people, radar_position, radar_orientation, skin_scattering: float = 0.3, room_box=None,
-                 room_options=None, extra: dict | None = None) -> Path:
+                 room_options=None, extra: dict | None = None, activities=None, furniture=None,
+                 person_info=None) -> Path:
     """Write ``people`` (``[(person, prefix), ...]``, same ``fps`` and ``num_frames``) as an animation
     directory at ``out`` with the radar pose (position m, orientation rad) and an optional room
     (``room_box = (lo, hi)``, :func:`sionnafmcw.scenes.room.add_room` with ``room_options``);
-    ``extra`` is added to ``animation.json``."""
+    ``extra`` is added to ``animation.json``.
+
+    The manifest's ``people`` entry (:mod:`sionnafmcw.animation.people`) names person :math:`i`
+    ``person<i>`` and gives its objects, its activity (``activities[i]``: a string or one per frame;
+    default ``""``), its keypoints in every frame (:meth:`~.person.MocapPerson.keypoints`) and the
+    fields of ``person_info[i]``. ``furniture``: placed pieces (:func:`sionnafmcw.scenes.furniture.place_furniture`),
+    written as static objects (doors cut their openings in the room's walls), listed under ``furniture``.
+    """
+    from ..animation.people import people_entry
+    from ..scenes import furniture as furniture_mod
+    from ..scenes.keypoints import KEYPOINTS
     from ..scenes.room import add_room
     from ..scenes.writer import AnimationWriter, skin_material
 
@@ -67,19 +78,34 @@ def write_people(out, people, radar_position, radar_orientation, skin_scattering
     prefixes = [p for _, p in people]
     if len(set(prefixes)) != len(prefixes):
         raise ValueError(f"write_people: prefixes {prefixes} repeat; give every person its own")
+    activities = list(activities) if activities is not None else [""] * len(people)
+    person_info = list(person_info) if person_info is not None else [{}] * len(people)
+    if len(activities) != len(people) or len(person_info) != len(people):
+        raise ValueError(f"write_people: {len(people)} people but {len(activities)} activities and "
+                         f"{len(person_info)} person_info entries; give one per person")
+    pieces = list(furniture or [])
+    if pieces and room_box is None and any(p.kind == "door" for p in pieces):
+        raise ValueError("write_people: doors need a room (room_box) to stand in")
     w = AnimationWriter(out, fps)
     w.add_materials(skin_material(skin_scattering))
+    opts = room_options or {}
     if room_box is not None:
-        opts = room_options or {}
         add_room(w, room_box[0], room_box[1], wall=opts.get("wall_material", "concrete"),
                  floor=opts.get("floor_material", "floorboard"), ceiling=opts.get("ceiling_material", "plasterboard"),
-                 scattering_coefficient=opts.get("wall_scattering", 0.2))
+                 scattering_coefficient=opts.get("wall_scattering", 0.2), openings=furniture_mod.openings(pieces))
+    extra = dict(extra or {})
+    if pieces:
+        extra["furniture"] = furniture_mod.add_furniture(w, pieces, opts.get("furniture_scattering", 0.2))
     frames = [add_person(w, person, prefix) for person, prefix in people]
     for i in range(n):
         rigid = {}
         for rigid_at in frames:
             rigid.update(rigid_at(i))
         w.frame(rigid=rigid)
+    persons = [{"name": f"person{i}", "prefix": prefix, "objects": [prefix + k for k in person.segment_names],
+                "activity": act, **info, "keypoints": person.keypoints()}
+               for i, ((person, prefix), act, info) in enumerate(zip(people, activities, person_info))]
+    extra["people"] = people_entry(KEYPOINTS, persons)
     return w.finish(radar_position, radar_orientation, extra=extra)
 
 
@@ -131,8 +157,11 @@ def bvh_to_animation(bvh, out, route: str = "numpy", fps: float = 30.0, num_fram
         return export_with_blender(person, Path(bvh), out, radar_position, orientation,
                                    skin_scattering=skin_scattering, room_box=box, python=python, timeout=timeout)
     with atomic_directory(out, replace=True) as tmp:
+        from ..scenes.people import clip_label
+
         write_people(tmp, [(person, "")], radar_position, orientation, skin_scattering, room_box=box,
-                     extra={"mocap": source})
+                     extra={"mocap": source}, activities=[clip_label(str(bvh))],
+                     person_info=[{"height_m": person.body.height, "build": build}])
     return out
 
 

@@ -39,6 +39,11 @@ from a wall or the ceiling, as fall detectors do). For ``stand_still`` and ``vit
 looks at the chest instead, from ``radar_distance`` along the chest's outward normal (in front of a
 sitting or standing person, above a lying one). Acknowledgement for the CMU clips:
 :data:`sionnafmcw.mocap.library.ACKNOWLEDGEMENT`.
+
+With ``room`` the person and the radar stand in a closed room, furnished by the furniture
+parameters (``tables``, ``chairs``, ``sofas``, ``shelves``, ``cabinets``, ``doors``, ``monitors``,
+:mod:`.furniture`), placed clear of the person's swept footprint. The manifest labels the person
+(``people``: activity and keypoints per frame, :mod:`sionnafmcw.animation.people`).
 """
 
 from __future__ import annotations
@@ -48,6 +53,7 @@ import math
 import numpy as np
 
 from .body import MESH_EDGE
+from . import furniture
 from .registry import Parameter, register
 from .room import CEILING_MATERIALS, FLOOR_MATERIALS, WALL_MATERIALS
 from .vitals import (BREATHING_AMPLITUDE, BREATHING_RATE, HEART_AMPLITUDE, HEART_RATE, PosturalSway, VitalSigns,
@@ -87,6 +93,7 @@ _ROOM = {
     "ceiling_material": Parameter("plasterboard", str, "", "ITU material of the ceiling", choices=CEILING_MATERIALS),
     "wall_scattering": Parameter(0.2, float, "", "diffuse scattering coefficient of walls, floor, ceiling",
                                  low=0.0, high=1.0),
+    **furniture.PARAMETERS,
 }
 _CLIP_TIME = {
     "time_offset": Parameter(0.0, float, "s", "clip seconds skipped at the start of the activity's window",
@@ -103,29 +110,44 @@ def _radar_distance(distance: float) -> Parameter:
 
 
 def _room_box(people, radar_position, p):
+    """``(box, room options, furniture pieces)`` of an activity's room (``None, None, []`` without one)."""
     from ..mocap.scene import room_around
 
     if not p["room"]:
-        return None, None
+        if furniture.wants_furniture(p):
+            raise ValueError("furniture (tables, chairs, sofas, shelves, cabinets, doors, monitors) needs room=true")
+        return None, None, []
     pts = []
     for person, _ in people:
         step = max(1, person.num_frames // 8)
         for i in list(range(0, person.num_frames, step)) + [person.num_frames - 1]:
             pts.append(np.concatenate(list(person.world_vertices(i).values()))[::53])
     box = room_around(np.vstack(pts + [np.asarray(radar_position, float)[None]]), p["room_margin"], p["room_height"])
-    opts = {k: p[k] for k in ("wall_material", "floor_material", "ceiling_material", "wall_scattering")}
-    return box, opts
+    opts = {k: p[k] for k in ("wall_material", "floor_material", "ceiling_material", "wall_scattering",
+                              "furniture_scattering")}
+    pieces = []
+    if furniture.wants_furniture(p):
+        keep = furniture.people_keep_out([person.footprints() for person, _ in people], radar_position,
+                                         p["furniture_clear_view"])
+        pieces = furniture.place_furniture(furniture.counts_of(p), box[0], box[1], keep, p["furniture_seed"],
+                                           p["furniture_clearance"])
+    return box, opts, pieces
 
 
-def mocap_person(clip_name: str, p: dict, start=None, end=None, reverse: bool = False):
+def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False):
     """The :class:`~sionnafmcw.mocap.person.MocapPerson` of an activity's parameters ``p`` on the shipped
-    clip ``clip_name`` between clip times ``start`` and ``end`` (None: the clip's usable ends)."""
+    clip ``clip_name`` (or a parsed :class:`~sionnafmcw.mocap.bvh.BvhClip`) between clip times ``start``
+    and ``end`` (None: the clip's usable ends)."""
+    from ..mocap.bvh import BvhClip
     from ..mocap.segments import leg_stature
     from ..mocap.library import load_clip
     from ..mocap.person import MocapPerson
     from ..mocap.skeleton import CMU_UNIT, ClipMotion
 
-    clip = load_clip(clip_name)
+    if isinstance(clip_name, BvhClip):
+        clip, clip_name = clip_name, str(clip_name.path or "BVH clip")
+    else:
+        clip = load_clip(clip_name)
     unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(clip, CMU_UNIT))
     lo = clip.frame_time if start is None else float(start)
     hi = clip.duration if end is None else float(end)
@@ -147,20 +169,23 @@ def mocap_person(clip_name: str, p: dict, start=None, end=None, reverse: bool = 
 
 
 def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=None):
-    from ..mocap.library import ACKNOWLEDGEMENT
+    from ..mocap.library import ACKNOWLEDGEMENT, CLIPS
     from ..mocap.scene import radar_in_front, radar_orientation, write_people
 
     person = mocap_person(clip_name, p, start, end, reverse)
     radar, target = radar_in_front((p["x"], p["y"]), p["heading"] + p["radar_azimuth"], p["radar_distance"],
                                    p["radar_height"])
     target[2] = p["radar_target_height"]
-    box, opts = _room_box([(person, "")], radar, p)
+    box, opts, pieces = _room_box([(person, "")], radar, p)
     extra = {"activity": {"name": activity, "motion_source": f"CMU Graphics Lab Motion Capture Database, clip "
                           f"{clip_name}" + (" played backwards" if reverse else ""),
                           "clip": clip_name, "clip_start_s": person.start, "reverse": reverse,
                           "playback_rate": person.playback_rate, "stature_m": person.body.height,
                           "acknowledgement": ACKNOWLEDGEMENT}}
-    write_people(out, [(person, "")], radar, radar_orientation(radar, target), p["skin_scattering"], box, opts, extra)
+    label = CLIPS[clip_name].activity if activity == "mocap_clip" else activity
+    write_people(out, [(person, "")], radar, radar_orientation(radar, target), p["skin_scattering"], box, opts, extra,
+                 activities=[label], furniture=pieces,
+                 person_info=[{"height_m": person.body.height, "build": p["build"], "clip": clip_name}])
 
 
 def _mocap_params(radar_distance: float) -> dict:
@@ -283,13 +308,16 @@ def _write_still(out, activity, posture, p):
     normal /= np.linalg.norm(normal)
     radar = centroid + p["radar_distance"] * normal
     orientation = look_at_orientation(radar, centroid)
-    box, opts = _room_box([(person, "")], radar, p)
+    box, opts, pieces = _room_box([(person, "")], radar, p)
     extra = {"activity": {"name": activity, "posture": posture,
                           "motion_source": f"posture: CMU clip {POSTURES[posture][0]} at {POSTURES[posture][1]} s; "
                                            "motion: parametric sway and chest-wall breathing and heartbeat",
                           "vital_signs": vitals.to_dict(), "sway_rms_m": p["sway_rms"],
                           "stature_m": person.body.height, "acknowledgement": ACKNOWLEDGEMENT}}
-    write_people(out, [(person, "")], radar, orientation, p["skin_scattering"], box, opts, extra)
+    write_people(out, [(person, "")], radar, orientation, p["skin_scattering"], box, opts, extra,
+                 activities=[activity], furniture=pieces,
+                 person_info=[{"height_m": person.body.height, "build": p["build"], "posture": posture,
+                               "vital_signs": vitals.to_dict()}])
 
 
 def _still_params(sway_default, radar_distance):
