@@ -8,7 +8,9 @@ echo block, the same every frame, is synthesised once per block and reused: ``st
 and the store receives the cube and the ground truth of every moving object: position
 (area-weighted centroid of its mesh), velocity (the manifest's) and radial velocity
 :math:`\\dot R` from the radar's phase centre (the centroid of the virtual array, positive
-receding). The synthesis and the store write of frame :math:`n` run on one worker thread while
+receding), and for a scene with people (the manifest's ``people`` entry) every person's keypoints
+and activity (:mod:`sionnafmcw.store`). The synthesis and the store write of frame :math:`n` run on one
+worker thread while
 the engine computes frame :math:`n + 1`; frames are written in order, each once its cube is
 complete (a signal stops the main thread; the write under way finishes first). Memory is
 bounded by one frame's echoes and one frame's synthesis, and checked against the memory
@@ -246,6 +248,9 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
     animation.check_frequency(radar.fc)
     names = animation.object_names
     positions_at = _check_ranges(animation, radar, pose, indices, names)
+    people = animation.people
+    people_arrays = None if people is None else {
+        "names": people.names, "joints": people.keypoint_names, "object_person": people.object_person(names)}
 
     out = Path(out)
     if repair and out.exists():
@@ -258,8 +263,9 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
                 attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
                        "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
                        "leakage_db": leakage_db,
+                       **({"people": {n: people.info[n] for n in people.names}} if people is not None else {}),
                        "sionnafmcw_version": __version__},
-                wait=wait, hold_lock=True,
+                wait=wait, hold_lock=True, people=people_arrays,
             )
         with deferred():
             done = store.done()
@@ -283,7 +289,10 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
                 radial = radial_velocity(positions, velocities, centre)
             else:
                 positions = velocities = radial = None
-            store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial)
+            joints = activities = None
+            if people is not None:
+                joints, activities = people.keypoints[f], people.activities[f]
+            store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial, joints, activities)
             if bar is not None:
                 bar.update(1)
 

@@ -19,6 +19,25 @@ variable                   dimensions                          dtype      meanin
 ``object``                 object (coordinate)                 str        names of the moving objects
 =========================  ==================================  =========  =====================================
 
+Scenes with people (the animation's ``people`` entry, :mod:`sionnafmcw.animation.people`) add the
+per-person truth and labels:
+
+=========================  ==================================  =========  =====================================
+variable                   dimensions                          dtype      meaning (SI units)
+=========================  ==================================  =========  =====================================
+``joint_position``         frame, person, joint, xyz           float64    keypoints at :math:`t_n` (m, world;
+                                                                          NaN where a body lacks the joint)
+``person_activity``        frame, person                       str        what each person does in the frame
+``person_count``           frame                               int32      people in the scene (-1: not done)
+``object_person``          object                              str        an object's person ("" for none)
+``person``                 person (coordinate)                 str        the people's names (``person0``, ...)
+``joint``                  joint (coordinate)                  str        the keypoints' names (``KEYPOINTS``
+                                                                          of :mod:`sionnafmcw.scenes.keypoints`)
+=========================  ==================================  =========  =====================================
+
+Stores written before these variables existed, and runs of scenes without people, have none of
+them; :class:`Run` then reports no people.
+
 ``tx`` and ``rx`` are in *physical* element order (the rows of ``RadarConfig.tx_positions`` and
 ``rx_positions``), not in firing order. ``xyz`` is the world frame of the scene (z up). Frames not
 done hold the fill values (0 for ``iq``, NaN for the float arrays).
@@ -40,6 +59,9 @@ Attributes
 ``seed``, ``noise``, ``leakage_db``
     Frame :math:`n`'s receiver noise comes from ``numpy.random.default_rng([seed, n])`` when
     ``noise`` is true; ``leakage_db`` is the direct Tx-Rx coupling (dB) or null.
+``people``
+    With people: ``{person: {field: value}}``, each person's fields of the animation's ``people``
+    entry besides its objects, activity and keypoints (stature, build, motion source, vital signs...).
 ``sionnafmcw_version``
     The version that wrote the store (not compared when resuming).
 
@@ -105,7 +127,10 @@ def _json_safe(value):
 #: while being created by a version that did not create stores atomically.
 REQUIRED_ATTRS = ("radar", "radar_pose", "engine", "seed", "noise")
 #: The arrays of a frame, in the order :meth:`RunStore.write_frame` writes them (``frame_done`` last).
-FRAME_ARRAYS = ("iq", "frame_time", "truth_position", "truth_velocity", "truth_radial_velocity")
+FRAME_ARRAYS = ("iq", "frame_time", "truth_position", "truth_velocity", "truth_radial_velocity", "joint_position",
+                "person_activity", "person_count")
+#: Per-person arrays (present only in runs of scenes with people).
+PEOPLE_ARRAYS = ("joint_position", "person_activity", "person_count", "object_person", "person", "joint")
 
 
 class RunStoreBusy(RunStoreError):
@@ -141,7 +166,7 @@ def _creation_leftover(path: Path) -> bool:
     if meta is not None and attrs.get("format") not in (None, FORMAT):
         return False  # some other store
     names = {p.name for p in path.iterdir()}
-    if not names <= {"zarr.json", *FRAME_ARRAYS, "frame_done", "object"}:
+    if not names <= {"zarr.json", *FRAME_ARRAYS, *PEOPLE_ARRAYS, "frame_done", "object"}:
         return False  # holds something that is not ours
     try:
         done = zarr.open_array(str(path / "frame_done"), mode="r", zarr_format=3)[:]
@@ -150,9 +175,10 @@ def _creation_leftover(path: Path) -> bool:
     return not np.any(done)
 
 
-def _create(path: Path, radar, num_frames: int, object_names: list[str], attrs: dict) -> None:
+def _create(path: Path, radar, num_frames: int, object_names: list[str], attrs: dict, people=None) -> None:
     """Build the store in a hidden sibling of ``path`` and rename it into place when complete
-    (:func:`sionnafmcw.fs.atomic_directory`): metadata, arrays and every attribute in one write."""
+    (:func:`sionnafmcw.fs.atomic_directory`): metadata, arrays and every attribute in one write.
+    ``people``: ``{"names", "joints", "object_person"}`` for the per-person arrays (module docstring)."""
     from . import _faults
     from .fs import atomic_directory
 
@@ -174,10 +200,30 @@ def _create(path: Path, radar, num_frames: int, object_names: list[str], attrs: 
         objects = group.create_array("object", shape=(n_obj,), dtype=str, dimension_names=["object"])
         if n_obj:
             objects[:] = np.array(object_names, dtype=str)
+        if people is not None:
+            _create_people(group, num_frames, n_obj, people)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")  # consolidated metadata is not in the v3 spec yet
             zarr.consolidate_metadata(str(tmp))
         _faults.point("store-created", store=path)
+
+
+def _create_people(group, num_frames: int, n_obj: int, people: dict) -> None:
+    """The per-person arrays of a run of a scene with people (module docstring)."""
+    names, joints = list(people["names"]), list(people["joints"])
+    n_p, n_j = len(names), len(joints)
+    group.create_array("joint_position", shape=(num_frames, n_p, n_j, 3), chunks=(1, max(n_p, 1), max(n_j, 1), 3),
+                       dtype="float64", fill_value=np.nan, dimension_names=["frame", "person", "joint", "xyz"])
+    group.create_array("person_activity", shape=(num_frames, n_p), chunks=(1, max(n_p, 1)), dtype=str,
+                       dimension_names=["frame", "person"])
+    group.create_array("person_count", shape=(num_frames,), dtype="int32", fill_value=-1, dimension_names=["frame"])
+    for name, values, dim in (("person", names, "person"), ("joint", joints, "joint")):
+        arr = group.create_array(name, shape=(len(values),), dtype=str, dimension_names=[dim])
+        if values:
+            arr[:] = np.array(values, dtype=str)
+    owners = group.create_array("object_person", shape=(n_obj,), dtype=str, dimension_names=["object"])
+    if n_obj:
+        owners[:] = np.array(people["object_person"], dtype=str)
 
 
 class RunStore:
@@ -199,13 +245,14 @@ class RunStore:
     # ------------------------------------------------------------------ create / resume
     @classmethod
     def open(cls, path, radar, num_frames: int, object_names: list[str], attrs: dict,
-             wait: float = 0.0, hold_lock: bool = False) -> "RunStore":
+             wait: float = 0.0, hold_lock: bool = False, people: dict | None = None) -> "RunStore":
         """Create the store, or reopen it for resuming when its attributes equal ``attrs``.
 
         The store's lock is taken while leftovers are swept and the store is created or checked;
         ``wait`` (s): how long to wait for another live writer of the store to finish
         (:class:`RunStoreBusy` after that). ``hold_lock``: keep the lock until :meth:`close` (a
-        writer of frames, as :func:`~sionnafmcw.simulate`), else release it on return.
+        writer of frames, as :func:`~sionnafmcw.simulate`), else release it on return. ``people``:
+        ``{"names", "joints", "object_person"}`` of a scene with people (the per-person arrays).
         """
         from .fs import LockBusy, LockFile, sweep_leftovers
 
@@ -226,7 +273,7 @@ class RunStore:
             if path.exists() and path.is_dir() and not any(path.iterdir()):
                 path.rmdir()
             if not path.exists():
-                _create(path, radar, num_frames, object_names, attrs)
+                _create(path, radar, num_frames, object_names, attrs, people)
                 store = cls(zarr.open_group(str(path), mode="r+", zarr_format=3), path, lock)
                 store.created = True
             else:
@@ -287,8 +334,10 @@ class RunStore:
         return np.asarray(self.group["frame_done"][:], dtype=bool)
 
     def write_frame(self, index: int, iq: np.ndarray, time: float, positions, velocities,
-                    radial_velocities) -> None:
-        """Write every array of frame ``index``, then mark it done (last).
+                    radial_velocities, joint_positions=None, activities=None) -> None:
+        """Write every array of frame ``index``, then mark it done (last). ``joint_positions`` [person,
+        joint, 3] and ``activities`` [person] for a store with the per-person arrays (the person count is
+        their number).
 
         Signals are held during the writes (:func:`sionnafmcw.interrupts.deferred`): Ctrl-C never
         cuts a chunk write in half; a SIGKILL leaves at most a ``*.partial`` file (swept by the next
@@ -305,6 +354,10 @@ class RunStore:
                 g["truth_position"][index] = positions
                 g["truth_velocity"][index] = velocities
                 g["truth_radial_velocity"][index] = radial_velocities
+            if "joint_position" in g and joint_positions is not None:
+                g["joint_position"][index] = np.asarray(joint_positions, float)
+                g["person_activity"][index] = np.asarray(activities, dtype=str)
+                g["person_count"][index] = np.int32(len(activities))
             _faults.point("chunk-written", store=self.path, frame=index)
             g["frame_done"][index] = True
             _faults.point("frame-done", store=self.path, frame=index)
@@ -341,6 +394,8 @@ def check_run(path, repair: bool = True) -> dict:
     corrupt = {}
     for f in done:
         for name in FRAME_ARRAYS:
+            if name not in group:   # per-person arrays of a run without people (or an older store)
+                continue
             if name != "iq" and group[name].ndim > 1 and group[name].shape[1] == 0:
                 continue
             try:
@@ -607,6 +662,59 @@ class Run:
         positions = np.asarray(self._read("truth_position", frame), float)
         local = world_to_radar(positions, self.pose.position, self.pose.orientation) - self.radar.phase_centre
         return np.linalg.norm(local, axis=-1), np.arctan2(local[:, 1], local[:, 0])
+
+    # ------------------------------------------------------------------ people
+    def _names(self, name: str) -> list[str]:
+        if name not in self._group:
+            return []
+        arr = self._group[name]
+        return [str(x) for x in np.asarray(arr[:])] if arr.shape[0] else []
+
+    @cached_property
+    def people(self) -> list[str]:
+        """Names of the people in the scene (the ``person`` axis); empty for a run without people (or a store
+        written before the per-person arrays existed)."""
+        return self._names("person")
+
+    @cached_property
+    def joints(self) -> list[str]:
+        """Keypoint names (the ``joint`` axis, :data:`sionnafmcw.scenes.keypoints.KEYPOINTS`); empty without people."""
+        return self._names("joint")
+
+    def _person_index(self, person: str) -> int:
+        if person not in self.people:
+            raise RunStoreError(f"{self.path}: person {person!r} is not in the run; it has "
+                                f"{', '.join(self.people) or 'no people'}")
+        return self.people.index(person)
+
+    def person_objects(self, person: str) -> list[str]:
+        """The objects (body segments) of ``person``."""
+        self._person_index(person)
+        owners = self._names("object_person")
+        return [o for o, p in zip(self.objects, owners) if p == person]
+
+    def joint_positions(self, person: str | None = None) -> np.ndarray:
+        """Keypoints ``[frame, person, joint, 3]`` (m, world), or ``[frame, joint, 3]`` of one ``person``;
+        NaN for frames not done and joints a body lacks."""
+        if not self.people:
+            raise RunStoreError(f"{self.path}: the run has no people (no joint_position)")
+        arr = np.asarray(self._read_all("joint_position"), float)
+        arr = np.where(self.done_mask[:, None, None, None], arr, np.nan)
+        return arr if person is None else arr[:, self._person_index(person)]
+
+    def activities(self) -> np.ndarray:
+        """What each person does, ``[frame, person]`` str (``""`` for frames not done)."""
+        if not self.people:
+            return np.zeros((self.num_frames, 0), dtype=object)
+        arr = np.asarray(self._read_all("person_activity")).astype(object)
+        arr[~self.done_mask] = ""
+        return arr
+
+    def person_count(self) -> np.ndarray:
+        """People in the scene per frame ``[frame]`` (int; -1 for frames not done, 0 without people)."""
+        if "person_count" not in self._group:
+            return np.where(self.done_mask, 0, -1)
+        return np.where(self.done_mask, np.asarray(self._read_all("person_count"), int), -1)
 
     # ------------------------------------------------------------------ the dataset's interface
     def __getitem__(self, name):

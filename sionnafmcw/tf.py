@@ -72,7 +72,8 @@ def dataset(path, features: str = "range_doppler", labels=("radial_velocity",), 
         ``[F, doppler, range]``) or ``"micro_doppler"`` (float32 ``[velocity, time]``)
     labels : a label name (then ``labels`` in each element is that tensor) or a tuple of names
         (then a dict): ``radial_velocity``, ``range`` (float32 ``[F]``), ``frame_time`` (float64
-        ``[F]``), ``item``, ``scenario``, ``radar`` (string), ``start_frame`` (int64), or a
+        ``[F]``), for people ``person_count`` (int32 ``[F]``) and ``joint_position`` (float32
+        ``[F, person, joint, 3]``), ``item``, ``scenario``, ``radar`` (string), ``start_frame`` (int64), or a
         scenario parameter (``speed`` ...: int64 / float32 / bool / string)
     frames_per_example : F, consecutive frames per example
     frame_stride : frames between example starts (default F)

@@ -21,6 +21,7 @@ EXPECTED = [
     "02_walking_person.ipynb",
     "03_blender_scene.ipynb",
     "04_dataset_dask_tensorflow.ipynb",
+    "05_people_activities.ipynb",
 ]
 
 

@@ -142,7 +142,7 @@ def test_a_scenario_seed_is_drawn_per_item_unless_set():
     ({"parameters": {"subdiv": {"range": [1, 5, 0.5]}}}, r"integer lo, hi and step"),
     ({"parameters": {"speed": {"uniform": [-200.0, 0.0]}}}, r"parameters.speed: .*out of range"),
     ({"parameters": {"speed": []}}, r"parameters.speed: 'choice' needs a non-empty list"),
-    ({"parameters": {"speed": {"normal": [0, 1]}}}, r"exactly one key among value, choice, uniform, range"),
+    ({"parameters": {"speed": {"normal": [0, 1]}}}, r"exactly one key among value, choice, cycle,"),
     ({"parameters": {"room": "yes"}}, r"parameters.room: .*not a bool"),
     ({"radar": "awr9999"}, r"radar: unknown radar preset 'awr9999'"),
     ({"radar": {"preset": "walk-77ghz", "chirps": 8}}, r"radar: unknown RadarConfig field\(s\) chirps; known: .*num_chirps"),

@@ -17,7 +17,7 @@ import pytest
 from notebook_runs import EXPECTED, NOTEBOOK_DIR
 
 
-def test_the_four_tutorials_exist_with_outputs_cleared():
+def test_the_tutorials_exist_with_outputs_cleared():
     found = sorted(p.name for p in NOTEBOOK_DIR.glob("*.ipynb"))
     assert found == EXPECTED
     for name in EXPECTED:

@@ -36,6 +36,9 @@ This docstring is the data contract of the directory::
   same ``to_world`` (checked against the XML). Every point moves at
   :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)`, exactly (:mod:`.rigid`). Such a
   PLY carries no ``vx, vy, vz``; it may carry vertex normals ``nx, ny, nz`` (its own frame).
+* **People** (optional): a top-level ``people`` entry names every person, its objects, its activity
+  (for the whole animation or per frame) and its keypoints per frame (:mod:`sionnafmcw.animation.people`); a
+  ``furniture`` entry (informative) lists the pieces of a furnished room.
 
 Rooms, one job each:
 
@@ -44,6 +47,8 @@ Rooms, one job each:
 * :mod:`.model` -- :class:`Animation`, :class:`RadarPose`, :class:`Frame`, :class:`Mesh`;
 * :mod:`.rigid` -- :class:`RigidMotion` (a rigid object's transform and velocity field), the rigid
   fit (Kabsch) and the angular velocity of two rotations;
+* :mod:`sionnafmcw.animation.people` -- the optional ``people`` entry (who is in the scene, their activities and keypoints
+  per frame), :class:`People`;
 * :mod:`.manifest` -- :func:`load_animation` (checks everything it can without ray tracing and
   raises an :class:`AnimationError` naming the file and field that is wrong) and
   :func:`write_animation`.
@@ -56,12 +61,13 @@ from .errors import AnimationError
 from .frame_xml import ParsedFrameXml, ShapeInfo, frame_xml_text, matrix_ops, parse_frame_xml, write_frame_xml
 from .manifest import FORMAT, TIME_TOLERANCE, load_animation, write_animation
 from .model import Animation, Frame, Mesh, RadarPose
+from .people import People, parse_people, people_entry
 from .ply import PlyData, ply_bytes, read_ply, write_ply
 from .rigid import RIGID_TOLERANCE, RigidMotion, angular_velocity, rigid_fit, transform_matrix
 
 __all__ = [
     "FORMAT", "RIGID_TOLERANCE", "TIME_TOLERANCE", "Animation", "AnimationError", "Frame", "Mesh", "ParsedFrameXml",
-    "PlyData", "RadarPose", "RigidMotion", "ShapeInfo", "angular_velocity", "frame_xml_text", "load_animation",
-    "matrix_ops", "parse_frame_xml", "ply_bytes", "read_ply", "rigid_fit", "transform_matrix", "write_animation",
-    "write_frame_xml", "write_ply",
+    "People", "PlyData", "RadarPose", "RigidMotion", "ShapeInfo", "angular_velocity", "frame_xml_text",
+    "load_animation", "matrix_ops", "parse_frame_xml", "parse_people", "people_entry", "ply_bytes", "read_ply",
+    "rigid_fit", "transform_matrix", "write_animation", "write_frame_xml", "write_ply",
 ]

@@ -120,6 +120,14 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
         frames.append(Frame(idx, float(t), xml_path, objects, spins, transforms))
 
     anim = Animation(root, fps, frames, radar_pose, manifest)
+    people = anim.people      # the optional 'people' entry, checked (sionnafmcw.animation.people)
+    if people is not None:       # a person's objects are shapes of the scene (moving, or still in every frame)
+        known = set(anim.object_names) | set(anim.frame_xml(0).shapes)
+        for name, objs in people.objects.items():
+            missing = [o for o in objs if o not in known]
+            if missing:
+                raise AnimationError(f"{where}: field 'people': person {name!r} lists objects that are not shapes of "
+                                     f"the scene: {', '.join(missing[:5])}")
     checked_plys = set()
     for fr in frames:
         parsed = anim.frame_xml(fr.index)

@@ -109,6 +109,17 @@ class Animation:
         return np.array([f.time for f in self.frames], dtype=float)
 
     @property
+    def people(self):
+        """The manifest's people (:class:`~.people.People`: names, activities, keypoints per frame), or
+        None when it has no ``people`` entry (checked by :func:`~sionnafmcw.animation.load_animation`)."""
+        if "_people" not in self.__dict__:
+            from .people import parse_people
+
+            entry = self.manifest.get("people")
+            self._people = None if entry is None else parse_people(entry, self.num_frames, str(self.path))
+        return self._people
+
+    @property
     def object_names(self) -> list[str]:
         """Names of the objects the manifest gives velocities for, in order of first appearance."""
         names: list[str] = []

@@ -16,7 +16,9 @@ with :mod:`sionnafmcw.processing` frame by frame:
 
 Labels (:data:`FRAME_LABELS` per frame, the others one per example): ``radial_velocity`` and
 ``range`` of the item's label object (float32 ``[F]``, m/s and m, from the run store's truth, see
-:mod:`.index`), ``frame_time`` (float64 ``[F]``, s), ``item`` (id), ``scenario``, ``radar``
+:mod:`.index`), ``frame_time`` (float64 ``[F]``, s), for data sets of people ``person_count``
+(int32 ``[F]``) and ``joint_position`` (float32 ``[F, person, joint, 3]``, m, the person axis padded
+with NaN to the index's), ``item`` (id), ``scenario``, ``radar``
 (strings), ``start_frame`` (int64), and any scenario parameter by its name (``speed``, or
 ``param_speed``): its value from the index (int64, float32, bool or string; tuples as JSON text).
 """
@@ -32,7 +34,8 @@ import numpy as np
 from .index import DatasetError, item_dir, open_index
 
 FEATURES = ("iq", "range_doppler", "micro_doppler")
-FRAME_LABELS = ("radial_velocity", "range", "frame_time")
+FRAME_LABELS = ("radial_velocity", "range", "frame_time", "person_count", "joint_position")
+PEOPLE_LABELS = ("person_count", "joint_position")
 ITEM_LABELS = ("item", "scenario", "radar", "start_frame")
 _FEATURE_OPTIONS = {
     "iq": (),
@@ -79,6 +82,8 @@ class Examples:
                     not (name.startswith("param_") and name[len("param_"):] in params):
                 raise ValueError(f"label {name!r} is unknown; choose from {', '.join(FRAME_LABELS + ITEM_LABELS)} "
                                  f"or a scenario parameter ({', '.join(params)})")
+            if name in PEOPLE_LABELS and "person" not in self.index.dims:
+                raise ValueError(f"label {name!r} needs a data set of people (its index has no person axis)")
         F = int(frames_per_example)
         if F < 1:
             raise ValueError(f"frames_per_example must be >= 1, got {frames_per_example}")
@@ -144,6 +149,14 @@ class Examples:
         run = self._run(example.store)
         sl = slice(example.start, example.start + self.frames_per_example)
         out = {"frame_time": run.frame_times[sl]}
+        if any(n in PEOPLE_LABELS for n in self.labels):
+            out["person_count"] = run.person_count()[sl].astype(np.int32)
+            joints = np.full((self.frames_per_example, self.index.sizes["person"], self.index.sizes["joint"], 3),
+                             np.nan, np.float32)
+            if run.people:
+                jp = run.joint_positions()[sl]
+                joints[:, :jp.shape[1], :jp.shape[2]] = jp
+            out["joint_position"] = joints
         obj = str(self.index.label_object.values[self._row_of_store[example.store]])
         if not obj:
             nan = np.full(self.frames_per_example, np.nan, np.float32)
@@ -202,6 +215,10 @@ class Examples:
             return np.float32, (self.frames_per_example,)
         if name == "frame_time":
             return np.float64, (self.frames_per_example,)
+        if name == "person_count":
+            return np.int32, (self.frames_per_example,)
+        if name == "joint_position":
+            return np.float32, (self.frames_per_example, self.index.sizes["person"], self.index.sizes["joint"], 3)
         if name == "start_frame":
             return np.int64, ()
         value = self.item_label(name, self.examples[0])
@@ -222,4 +239,4 @@ class Examples:
             yield x, (labels[self.labels[0]] if self.single_label else labels)
 
 
-__all__ = ["Example", "Examples", "FEATURES", "FRAME_LABELS", "ITEM_LABELS"]
+__all__ = ["Example", "Examples", "FEATURES", "FRAME_LABELS", "ITEM_LABELS", "PEOPLE_LABELS"]

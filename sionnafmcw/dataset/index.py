@@ -12,12 +12,17 @@ Layout of a data set folder ``out``::
                                    attempts, wall time, worker, labels
 
 Labels of an item (from its run store, never from the spec): the *label object* is the spec's
-``label_object``, else ``torso`` when the scene has one, else the first moving object. Per frame
+``label_object``, else ``torso`` when the scene has one, else the first person's torso
+(``person0_torso``), else the first moving object. Per frame
 :math:`n`: ``frame_time`` :math:`t_n` (s), ``radial_velocity`` :math:`\dot R_n` of the label
 object (m/s, positive receding, the store's ``truth_radial_velocity``) and ``range``
 :math:`R_n = \|\mathbf p_n - \mathbf c\|` (m) from the radar's phase centre :math:`\mathbf c`
 (the virtual array's centroid, as the store's radial velocity) to the object's centroid
-:math:`\mathbf p_n`. Frames not simulated are NaN.
+:math:`\mathbf p_n`. Frames not simulated are NaN. A scene with people
+(:mod:`sionnafmcw.animation.people`) adds, per frame, ``person_count`` (-1 not simulated),
+``activity`` of every person and ``joint_position``, every person's keypoints
+(:data:`sionnafmcw.scenes.keypoints.KEYPOINTS`, m, world; the pose-estimation label), and per person
+its ``breathing_rate`` and ``heart_rate`` (Hz, the vital signs the scene drew; NaN for people without).
 
 The index (``xarray.Dataset``, dimensions ``item`` and ``frame``, ``frame`` padded with NaN to the
 longest item): ``status`` (complete / failed / pending), ``error``, ``ran`` (run by the last
@@ -26,7 +31,12 @@ longest item): ``status`` (complete / failed / pending), ``error``, ``ran`` (run
 ``scenario``, ``radar``, ``noise_seed``, ``param_<name>`` for every scenario parameter (the
 builder's defaults filled in; tuples as JSON text), ``label_object``, ``num_frames``,
 ``frames_done``, and the per-frame labels ``frame_time``, ``radial_velocity``, ``range``,
-``frame_done``. Attributes: ``format``, ``name``, ``scenario``, ``spec`` (JSON), ``summary``,
+``frame_done``; when some item has people also ``num_people`` (item), ``person_count`` (item,
+frame; int32, -1 where not simulated), ``activity`` (item, frame, person; ``""`` where none),
+``joint_position`` (item, frame, person, joint, xyz; float32 m, NaN where none), ``breathing_rate`` and
+``heart_rate`` (item, person; Hz), the ``person`` axis padded to the most people of an item
+(``person0``, ``person1``, ...) and the ``joint`` axis named by the keypoints. Attributes:
+``format``, ``name``, ``scenario``, ``spec`` (JSON), ``summary``,
 ``sionnafmcw_version``.
 """
 
@@ -106,6 +116,9 @@ def choose_label_object(objects, requested: str | None) -> str:
         return requested
     if "torso" in objects:
         return "torso"
+    torsos = [o for o in objects if o.endswith("_torso")]
+    if torsos:
+        return torsos[0]
     return objects[0] if objects else ""
 
 
@@ -113,7 +126,9 @@ def store_labels(store, label_object: str | None = None) -> dict:
     """Per-frame labels of one run store (see the module docstring), as plain lists.
 
     Returns ``{"label_object", "objects", "num_frames", "frame_done", "frame_time",
-    "radial_velocity", "range"}``.
+    "radial_velocity", "range"}`` and, for a run with people, ``"people"``, ``"joints"``, ``"person_count"``,
+    ``"activity"`` ([frame][person]), ``"joint_position"`` ([frame][person][joint][3], m to 10 um, None
+    where NaN), ``"breathing_rate"`` and ``"heart_rate"`` ([person], Hz or None).
     """
     from ..store import open_run
 
@@ -125,8 +140,22 @@ def store_labels(store, label_object: str | None = None) -> dict:
     times = run.frame_times
     radial = run.truth(obj) if obj else np.full(n, np.nan)  # NaN for frames not done
     ranges = run.object_range(obj) if obj else np.full(n, np.nan)
-    return {"label_object": obj, "objects": objects, "num_frames": int(n), "frame_done": done.tolist(),
-            "frame_time": times.tolist(), "radial_velocity": radial.tolist(), "range": ranges.tolist()}
+    labels = {"label_object": obj, "objects": objects, "num_frames": int(n), "frame_done": done.tolist(),
+              "frame_time": times.tolist(), "radial_velocity": radial.tolist(), "range": ranges.tolist()}
+    if run.people:
+        joints = np.round(run.joint_positions(), 5)
+        info = run.attrs.get("people") or {}
+
+        def rate(person, key):
+            value = (info.get(person, {}).get("vital_signs") or {}).get(key)
+            return None if value is None else float(value)
+
+        labels.update(people=run.people, joints=run.joints, person_count=run.person_count().tolist(),
+                      activity=run.activities().tolist(),
+                      joint_position=np.where(np.isfinite(joints), joints, None).tolist(),
+                      breathing_rate=[rate(p, "breathing_rate") for p in run.people],
+                      heart_rate=[rate(p, "heart_rate") for p in run.people])
+    return labels
 
 
 # ===================================================================================== the index
@@ -184,22 +213,63 @@ def build_index(spec, records: list, summary: str = ""):
         "range": (("item", "frame"), per_frame("range")),
         "frame_done": (("item", "frame"), per_frame("frame_done", False, bool)),
     }
+    data.update(_people_labels(records, n_frames))
     resolved = [resolve(spec.scenario, r["parameters"]) for r in records]
     for name, p in declared.items():
         data[f"param_{name}"] = ("item", _param_column([_plain_param(v[name]) for v in resolved]))
-    ds = xr.Dataset(data, coords={"item": np.array([r["id"] for r in records], dtype=object)})
+    coords = {"item": np.array([r["id"] for r in records], dtype=object)}
+    if "person_count" in data:
+        n_people = data["activity"][1].shape[2]
+        joints = next(r["labels"]["joints"] for r in records if (r.get("labels") or {}).get("people"))
+        coords.update(person=np.array([f"person{k}" for k in range(n_people)], dtype=object),
+                      joint=np.array(joints, dtype=object))
+    ds = xr.Dataset(data, coords=coords)
     for name, p in declared.items():
         ds[f"param_{name}"].attrs.update({"units": p.unit, "description": p.doc,
                                           "drawn": name in spec.parameters and spec.parameters[name].kind != "value"})
     ds["frame_time"].attrs["units"] = "s"
     ds["radial_velocity"].attrs.update({"units": "m/s", "description": "truth dR/dt of label_object, + receding"})
     ds["range"].attrs.update({"units": "m", "description": "truth range of label_object from the radar phase centre"})
+    if "joint_position" in ds:
+        ds["joint_position"].attrs.update({"units": "m", "description": "keypoints of every person, world frame"})
+        ds["breathing_rate"].attrs["units"] = ds["heart_rate"].attrs["units"] = "Hz"
     ds["seconds"].attrs["units"] = "s"
     ds["cpu_seconds"].attrs.update({"units": "s", "description": "CPU time of the worker process during the item "
                                     "(all its threads; with several items per process at once, theirs too)"})
     ds.attrs.update({"format": INDEX_FORMAT, "name": spec.name, "scenario": spec.scenario, "spec": spec.to_json(),
                      "summary": summary, "sionnafmcw_version": __version__})
     return ds
+
+
+def _people_labels(records: list, n_frames: int) -> dict:
+    """The per-person index variables (module docstring) from the records' labels; ``{}`` when no item has people."""
+    with_people = [(i, r["labels"]) for i, r in enumerate(records) if (r.get("labels") or {}).get("people")]
+    if not with_people:
+        return {}
+    n_items = len(records)
+    n_people = max(len(lab["people"]) for _, lab in with_people)
+    n_joints = max(len(lab["joints"]) for _, lab in with_people)
+    count = np.full((n_items, n_frames), -1, np.int32)
+    activity = np.full((n_items, n_frames, n_people), "", dtype=object)
+    joints = np.full((n_items, n_frames, n_people, n_joints, 3), np.nan, np.float32)
+    breathing = np.full((n_items, n_people), np.nan)
+    heart = np.full((n_items, n_people), np.nan)
+    people = np.zeros(n_items, np.int64)
+    for i, lab in with_people:
+        p = len(lab["people"])
+        people[i] = p
+        c = np.asarray(lab["person_count"], np.int32)
+        count[i, :c.size] = c
+        act = np.asarray(lab["activity"], dtype=object).reshape(-1, p)
+        activity[i, :act.shape[0], :p] = act
+        jp = np.array(lab["joint_position"], dtype=float)   # None -> nan
+        joints[i, :jp.shape[0], :p, :jp.shape[2]] = jp
+        breathing[i, :p] = [np.nan if v is None else v for v in lab["breathing_rate"]]
+        heart[i, :p] = [np.nan if v is None else v for v in lab["heart_rate"]]
+    return {"num_people": ("item", people), "person_count": (("item", "frame"), count),
+            "activity": (("item", "frame", "person"), activity),
+            "joint_position": (("item", "frame", "person", "joint", "xyz"), joints),
+            "breathing_rate": (("item", "person"), breathing), "heart_rate": (("item", "person"), heart)}
 
 
 def _plain_param(v):

@@ -14,8 +14,11 @@ A spec is a YAML or JSON file, or a dict::
     parameters:                       # scenario parameters; the others keep the builder's defaults
       speed: {uniform: [-3.0, 3.0]}   #   continuous, uniform on [lo, hi)
       start_range: [3.0, 4.0, 5.0]    #   a list: one of these, uniformly
+      activity: {cycle: [walk, fall]} #   item i takes the (i mod n)-th: balanced classes
       subdiv: {range: [1, 4, 1]}      #   one of lo, lo+step, ..., up to hi (hi included when on the grid)
       num_frames: 8                   #   a fixed value ({"value": x} says the same explicitly)
+      clip: {files: "clips/*.bvh"}    #   a string parameter: one of the files the pattern (or folder)
+                                      #   matches, uniformly (relative to the spec file's folder)
     radar_pose: {position: [0, 0, 1], orientation: [0, 0, 0]}   # optional: overrides the scene's
     frames: 4                         # optional: simulate the first 4 frames, or a list of indices
     noise: true                       # optional (default true): receiver thermal noise
@@ -24,15 +27,22 @@ A spec is a YAML or JSON file, or a dict::
 
 A bare list is a set of choices, except for a ``tuple`` parameter (e.g. ``corner_reflectors``'
 ``ranges``) where a flat list of numbers is the value itself and a list of lists the choices;
-``{"choice": [...]}`` and ``{"value": ...}`` are never ambiguous.
+``{"choice": [...]}`` and ``{"value": ...}`` are never ambiguous. ``{"cycle": [...]}`` takes the values
+in turn, item :math:`i` the :math:`(i \bmod n)`-th (balanced classes: every activity as often).
+``{"files": pattern}`` is a choice
+among files: a glob pattern (``clips/*.bvh``) or a folder (every file in it), relative to the spec
+file's folder (to the working directory for a dict), resolved when the spec is loaded into the
+sorted list of absolute paths it matches (the canonical spec stores that list as a ``choice``, so a
+folder whose files change makes another spec).
 
 Reproducible draw: item :math:`i` has the id ``f"{i:06d}"``; its noise seed is the first draw of
 ``numpy.random.default_rng([seed, i])`` (an integer in :math:`[0, 2^{31})`), and every parameter
 :math:`p` is drawn from its own generator ``default_rng([seed, i, crc32(p)])``. So an item does not
 depend on ``count`` or on the other items, and adding, removing or changing one parameter leaves
-the draws of the others (and the noise) unchanged. When the scenario has a ``seed`` parameter and
-the spec does not set it, every item gets its own (``default_rng([seed, i, crc32("seed")])``), so
-random scene details (e.g. a gait) differ between items. A list of radars is drawn the same way
+the draws of the others (and the noise) unchanged. Every seed parameter of the scenario (``seed``,
+and any named ``*_seed``, e.g. ``furniture_seed``) the spec does not set is drawn per item
+(``default_rng([seed, i, crc32(name)])``), so random scene details (a gait, the placement of people
+and furniture) differ between items. A list of radars is drawn the same way
 under the key ``"radar"``.
 """
 
@@ -64,7 +74,7 @@ class SpecError(ValueError):
 # ===================================================================================== distributions
 @dataclass(frozen=True)
 class Draw:
-    """How one parameter is drawn: ``kind`` in value/choice/uniform/range and its ``args``."""
+    """How one parameter is drawn: ``kind`` in value/choice/cycle/uniform/range and its ``args``."""
 
     kind: str
     args: tuple
@@ -74,11 +84,14 @@ class Draw:
             return {"value": _plain(self.args[0])}
         return {self.kind: [_plain(a) for a in self.args]}
 
-    def sample(self, rng: np.random.Generator):
+    def sample(self, rng: np.random.Generator, index: int = 0):
+        """One value: from ``rng``, or for ``cycle`` the ``index``-th (item ``index``)."""
         if self.kind == "value":
             return self.args[0]
         if self.kind == "choice":
             return self.args[int(rng.integers(len(self.args)))]
+        if self.kind == "cycle":
+            return self.args[int(index) % len(self.args)]
         if self.kind == "uniform":
             lo, hi = self.args
             return float(rng.uniform(lo, hi))
@@ -89,7 +102,7 @@ class Draw:
         """Every value this draw can give (the endpoints for ``uniform``), for checking them all."""
         if self.kind == "value":
             return [self.args[0]]
-        if self.kind == "choice":
+        if self.kind in ("choice", "cycle"):
             return list(self.args)
         if self.kind == "uniform":
             return list(self.args)
@@ -159,6 +172,7 @@ class DatasetSpec:
     label_object: str | None = None
     source: str = "<dict>"
     scenario_seed: bool = False       # the builder has a `seed` the spec leaves to the draw
+    drawn_seeds: tuple = ()           # the builder's seed parameters (seed, *_seed) the spec leaves to the draw
 
     # ------------------------------------------------------------------ canonical form
     def to_dict(self) -> dict:
@@ -181,10 +195,10 @@ class DatasetSpec:
         noise_seed = int(np.random.default_rng([self.seed, index]).integers(SEED_SPACE))
         params = {}
         for name in sorted(self.parameters):
-            value = self.parameters[name].sample(_stream(self.seed, index, name))
+            value = self.parameters[name].sample(_stream(self.seed, index, name), index)
             params[name] = _plain(value)
-        if self.scenario_seed:
-            params["seed"] = int(_stream(self.seed, index, "seed").integers(SEED_SPACE))
+        for name in sorted(set(self.drawn_seeds) | ({"seed"} if self.scenario_seed else set())):
+            params[name] = int(_stream(self.seed, index, name).integers(SEED_SPACE))
         k = int(_stream(self.seed, index, "radar").integers(len(self.radars))) if len(self.radars) > 1 else 0
         radar_name, radar = self.radars[k]
         return Item(index, f"{index:06d}", params, radar, radar_name, noise_seed)
@@ -251,15 +265,39 @@ def _radar_entry(entry, where: str) -> tuple[str, dict, object]:
     return config.name, config.to_dict(), canonical
 
 
-def _draw(scenario: str, key: str, param, raw, where: str) -> Draw:
-    """Parse one parameter entry into a :class:`Draw` and check every value it can give."""
+def _files(pattern, base: Path, where: str) -> list[str]:
+    """The sorted absolute paths of the files ``pattern`` (a glob or a folder, relative to ``base``) matches."""
+    import glob
+
+    if not isinstance(pattern, str) or not pattern:
+        raise SpecError(f"{where}: 'files' needs a glob pattern or a folder (a string), got {pattern!r}")
+    path = Path(pattern).expanduser()
+    path = path if path.is_absolute() else base / path
+    if path.is_dir():
+        found = [p for p in path.iterdir() if p.is_file() and not p.name.startswith(".")]
+    else:
+        found = [Path(p) for p in glob.glob(str(path)) if Path(p).is_file()]
+    if not found:
+        raise SpecError(f"{where}: {{'files': {pattern!r}}} matches no file (looked for {path}); give a folder of "
+                        "files or a pattern such as clips/*.bvh")
+    return sorted(str(p.resolve()) for p in found)
+
+
+def _draw(scenario: str, key: str, param, raw, where: str, base: Path = Path(".")) -> Draw:
+    """Parse one parameter entry into a :class:`Draw` and check every value it can give (``base``: the
+    folder that relative ``files`` patterns start from)."""
     from ..scenes.registry import check_value
 
     if isinstance(raw, dict):
-        if len(raw) != 1 or next(iter(raw)) not in ("value", "choice", "uniform", "range"):
-            raise SpecError(f"{where}: a dict must have exactly one key among value, choice, uniform, range "
-                            f"(e.g. {{'uniform': [0.5, 2.0]}}), got keys {sorted(raw)}")
+        if len(raw) != 1 or next(iter(raw)) not in ("value", "choice", "cycle", "uniform", "range", "files"):
+            raise SpecError(f"{where}: a dict must have exactly one key among value, choice, cycle, uniform, range, "
+                            f"files (e.g. {{'uniform': [0.5, 2.0]}}), got keys {sorted(raw)}")
         kind, args = next(iter(raw.items()))
+        if kind == "files":
+            if param.type is not str:
+                raise SpecError(f"{where}: {{'files': pattern}} draws file paths but {key!r} has type "
+                                f"{param.type_name}; use it for a string parameter (such as a clip)")
+            kind, args = "choice", _files(args, base, where)
     elif isinstance(raw, (list, tuple)):
         if param.type is tuple and not any(isinstance(v, (list, tuple)) for v in raw):
             kind, args = "value", raw
@@ -271,9 +309,9 @@ def _draw(scenario: str, key: str, param, raw, where: str) -> Draw:
     if kind == "value":
         values = [args]
         draw_args = (args,)
-    elif kind == "choice":
+    elif kind in ("choice", "cycle"):
         if not isinstance(args, (list, tuple)) or not args:
-            raise SpecError(f"{where}: 'choice' needs a non-empty list of values, got {args!r}")
+            raise SpecError(f"{where}: '{kind}' needs a non-empty list of values, got {args!r}")
         values = list(args)
         draw_args = tuple(values)
     elif kind == "uniform":
@@ -317,7 +355,7 @@ def _draw(scenario: str, key: str, param, raw, where: str) -> Draw:
             raise SpecError(f"{where}: {exc}") from None
     if kind == "value":
         draw_args = (checked[0],)
-    elif kind == "choice":
+    elif kind in ("choice", "cycle"):
         draw_args = tuple(checked)
     return Draw(kind, draw_args)
 
@@ -388,7 +426,8 @@ def load_spec(spec) -> DatasetSpec:
     if unknown:
         raise SpecError(f"{where}: scenario {scenario!r} has no parameter {', '.join(map(repr, unknown))}; "
                         f"its parameters: {', '.join(declared)}")
-    draws = {key: _draw(scenario, key, declared[key], raw, f"{where}: parameters.{key}")
+    base = Path(source).resolve().parent if source != "<dict>" else Path.cwd()
+    draws = {key: _draw(scenario, key, declared[key], raw, f"{where}: parameters.{key}", base)
              for key, raw in params_raw.items()}
     if "fps" in declared:  # every radar's CPI must fit in the shortest frame period an item can draw
         fps = max(draws["fps"].support()) if "fps" in draws else declared["fps"].default
@@ -439,7 +478,9 @@ def load_spec(spec) -> DatasetSpec:
     return DatasetSpec(name=name, scenario=scenario, count=count, seed=seed, radars=radars, radar_entries=canon,
                        engine=engine, engine_options=dict(options), parameters=draws, radar_pose=pose, frames=frames,
                        noise=noise, label_object=label_object, source=source,
-                       scenario_seed="seed" in declared and "seed" not in draws)
+                       scenario_seed="seed" in declared and "seed" not in draws,
+                       drawn_seeds=tuple(sorted(k for k, p in declared.items() if (k == "seed" or k.endswith("_seed"))
+                                                and p.type is int and k not in draws)))
 
 
 def _check_engine_options(engine: str, options: dict, where: str) -> None:

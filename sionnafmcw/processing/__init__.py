@@ -10,7 +10,7 @@ Modules: :mod:`.windows` (unit-sum windows), :mod:`.fast_time` (range), :mod:`.c
 :mod:`.slow_time` (Doppler), :mod:`.rdmap` (range-Doppler), :mod:`.mimo` (virtual channels, TDM
 phase; the array geometry itself is :mod:`sionnafmcw.array`), :mod:`.angle` (angle FFT, Bartlett, range-azimuth), :mod:`.cfar`, :mod:`.peaks`
 (sub-bin interpolation), :mod:`.micro_doppler` (Doppler track, spectrogram),
-:mod:`.point_cloud`.
+:mod:`.point_cloud`, :mod:`sionnafmcw.processing.vitals` (breathing and heart rate from the chest bin's phase).
 """
 
 from .angle import (AngleSpectrum, RangeAzimuthMap, angle_fft, bartlett_spectrum, estimate_direction,
@@ -24,15 +24,16 @@ from .peaks import interpolate_peak, local_maxima, parabolic_offset, uniform_axi
 from .point_cloud import PointCloud, detections_to_point_cloud
 from .rdmap import RangeDopplerMap, range_doppler, range_doppler_map
 from .slow_time import doppler_fft, velocity_axis
+from .vitals import VitalSignsEstimate, vital_signs
 from .windows import window_weights
 
 __all__ = [
     "AngleSpectrum", "CFARResult", "DopplerTrack", "MicroDopplerSpectrogram", "PointCloud", "RangeAzimuthMap",
-    "RangeDopplerMap", "angle_fft", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
+    "RangeDopplerMap", "VitalSignsEstimate", "angle_fft", "bartlett_spectrum", "ca_cfar_2d", "ca_cfar_factor", "cfar_footprint",
     "detections_to_point_cloud", "doppler_fft", "doppler_time", "estimate_direction",
     "interpolate_peak", "local_maxima", "micro_doppler_spectrogram", "os_cfar_2d", "os_cfar_factor",
     "parabolic_offset", "range_axis", "range_azimuth_map", "range_doppler", "range_doppler_coupling",
     "range_doppler_map", "range_fft", "remove_static_clutter", "steering_vectors", "tdm_phase_compensation",
-    "uniform_axis_value", "velocity_axis", "virtual_channels",
+    "uniform_axis_value", "velocity_axis", "virtual_channels", "vital_signs",
     "window_weights",
 ]

@@ -11,12 +11,19 @@ r"""Scene builders: animation directories (layout: :mod:`sionnafmcw.animation`) 
 Modules: :mod:`.registry` (names, parameters, atomic build), :mod:`.meshes` (closed triangle
 meshes), :mod:`.writer` (frames, PLYs, materials), :mod:`.room` (a closed room),
 :mod:`.simple` (``moving_plate``, ``corner_reflectors``, ``empty_room``), :mod:`.gait` (the
-Boulic-Thalmann walking model), :mod:`.body` (body segments, kinematic chain, analytic truth),
-:mod:`.walking` (``circle_walk``, ``straight_walk``).
+Boulic-Thalmann walking model), :mod:`.segments` (body segments, kinematic chain, analytic truth),
+:mod:`.walking` (``circle_walk``, ``straight_walk``), :mod:`sionnafmcw.scenes.vitals` (breathing, heartbeat, postural
+sway), :mod:`.activities` (run, sit down / stand up, wave, jump, fall, pick up, stand still, vital
+signs, any shipped motion-capture clip: :mod:`sionnafmcw.mocap`), :mod:`sionnafmcw.scenes.people` (several people on
+tracks that never intersect), :mod:`.furniture` (furnished rooms), :mod:`.layout` (floor-plan
+geometry: footprints, overlap and clearance), :mod:`.keypoints` (the joints pose-estimation sets
+label).
 """
 
 from .registry import Parameter, build, describe, names, parameters, parse_params, parse_value  # noqa: F401
 from . import simple  # noqa: F401,E402  (registers the simple scenarios)
 from . import walking  # noqa: F401,E402  (registers the walking scenarios)
+from . import activities  # noqa: F401,E402  (registers the activity library)
+from . import people  # noqa: F401,E402  (registers the several-people scenario)
 
 __all__ = ["Parameter", "build", "describe", "names", "parameters", "parse_params", "parse_value"]

@@ -5,6 +5,11 @@ Materials are ITU-R P.2040 materials Sionna defines at 77 GHz (:data:`~.writer.I
 ``concrete`` (or ``plasterboard``), floor ``floorboard``, ceiling ``plasterboard`` (or
 ``ceiling_board``), each with a ``scattering_coefficient`` for surface roughness. The room makes
 the static clutter and the body-floor / body-wall multipath an indoor radar sees.
+
+A wall may have openings (doors, :mod:`.furniture`): ``openings={"wall_y0": [(lo, hi, height)]}`` cuts
+the wall's box, along the wall (x for the ``y`` walls, y for the ``x`` walls), from ``lo`` to ``hi`` and
+from the floor to ``height``: the wall becomes the boxes left and right of the opening and the lintel
+above it, whose faces (reveals) the radar sees as a real doorway's.
 """
 
 from __future__ import annotations
@@ -21,8 +26,9 @@ CEILING_MATERIALS = ("plasterboard", "ceiling_board", "concrete")
 
 
 def add_room(writer: AnimationWriter, lo, hi, wall: str = "concrete", floor: str = "floorboard",
-             ceiling: str = "plasterboard", scattering_coefficient: float = 0.2) -> dict:
-    """Add the six room surfaces to ``writer`` as static meshes; returns ``{name: material id}``."""
+             ceiling: str = "plasterboard", scattering_coefficient: float = 0.2, openings: dict | None = None) -> dict:
+    """Add the six room surfaces to ``writer`` as static meshes; returns ``{name: material id}``.
+    ``openings``: ``{wall: [(lo, hi, height), ...]}`` cut out of the walls (module docstring)."""
     lo, hi = np.asarray(lo, float), np.asarray(hi, float)
     if np.any(hi - lo <= 0):
         raise ValueError(f"room: empty inner space from {lo.tolist()} to {hi.tolist()}")
@@ -42,12 +48,45 @@ def add_room(writer: AnimationWriter, lo, hi, wall: str = "concrete", floor: str
         "wall_y0": ((x0 - t, y0 - t, z0), (x1 + t, y0, z1), ids["wall"]),
         "wall_y1": ((x0 - t, y1, z0), (x1 + t, y1 + t, z1), ids["wall"]),
     }
+    openings = dict(openings or {})
+    unknown = sorted(set(openings) - {k for k in parts if k.startswith("wall")})
+    if unknown:
+        raise ValueError(f"room: openings in unknown wall(s) {', '.join(unknown)}; walls: wall_x0, wall_x1, wall_y0, "
+                         "wall_y1")
     out = {}
     for name, (a, b, mid) in parts.items():
-        v, f = meshes.box(a, b)
-        writer.static(name, v, f, mid)
-        out[name] = mid
+        for k, (lo_box, hi_box) in enumerate(_cut(name, a, b, openings.get(name, ()))):
+            v, f = meshes.box(lo_box, hi_box)
+            piece = name if k == 0 else f"{name}_{k}"
+            writer.static(piece, v, f, mid)
+            out[piece] = mid
     return out
+
+
+def _cut(name, a, b, holes):
+    """The boxes of wall ``name`` (``a`` .. ``b``) with the openings ``holes`` [(lo, hi, height)] cut out."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    if not holes:
+        return [(a, b)]
+    axis = 0 if name.startswith("wall_y") else 1
+    holes = sorted((float(lo), float(hi), float(h)) for lo, hi, h in holes)
+    boxes, start = [], a[axis]
+    for lo, hi, h in holes:
+        if not (a[axis] < lo < hi < b[axis]) or lo < start or not (a[2] < a[2] + h < b[2]):
+            raise ValueError(f"room: opening {lo:.3f}..{hi:.3f} m (height {h:.3f} m) does not fit in {name} "
+                             f"({a[axis]:.3f}..{b[axis]:.3f} m, {b[2] - a[2]:.3f} m high) or overlaps another")
+        left_hi, lintel_lo, lintel_hi = b.copy(), a.copy(), b.copy()
+        left_lo = a.copy()
+        left_lo[axis], left_hi[axis] = start, lo
+        boxes.append((left_lo, left_hi))
+        lintel_lo[axis], lintel_hi[axis] = lo, hi
+        lintel_lo[2] = a[2] + h
+        boxes.append((lintel_lo, lintel_hi))
+        start = hi
+    last_lo = a.copy()
+    last_lo[axis] = start
+    boxes.append((last_lo, b.copy()))
+    return [(lo_box, hi_box) for lo_box, hi_box in boxes if np.all(hi_box - lo_box > 1e-9)]
 
 
 __all__ = ["CEILING_MATERIALS", "FLOOR_MATERIALS", "WALL_MATERIALS", "WALL_THICKNESS", "add_room"]

@@ -40,7 +40,9 @@ import math
 
 import numpy as np
 
+from ..animation.people import people_entry
 from ..animation.rigid import transform_matrix
+from .keypoints import KEYPOINTS, keypoint_positions, walker_anchors
 from .body import MESH_EDGE, SEGMENTS, CircleTrack, LineTrack, WalkingPerson
 from .gait import RV_MAX
 from .registry import Parameter, register
@@ -82,11 +84,16 @@ def write_person(out, person: WalkingPerson, num_frames: int, fps: float, radar_
                  scattering_coefficient=opts.get("wall_scattering", 0.2))
     for k in SEGMENTS:
         w.rigid(k, person.local_meshes[k][0], person.faces(k), SKIN, vertex_normals=person.local_normals[k])
+    keypoints = []
     for i in range(num_frames):
         motions = person.segment_motions(i / fps)
         w.frame(rigid={k: {"to_world": transform_matrix(m.rotation, m.translation), "velocity": m.velocity,
                            "angular_velocity": m.angular_velocity} for k, m in motions.items()})
-    w.finish(radar_position, look_at_orientation(radar_position, radar_target))
+        keypoints.append(keypoint_positions({k: (m.rotation[None], m.translation[None]) for k, m in motions.items()},
+                                            walker_anchors(person))[0])
+    people = people_entry(KEYPOINTS, [{"name": "person0", "prefix": "", "objects": list(SEGMENTS), "activity": "walk",
+                                       "height_m": person.height, "keypoints": keypoints}])
+    w.finish(radar_position, look_at_orientation(radar_position, radar_target), extra={"people": people})
 
 
 def _room_options(p):

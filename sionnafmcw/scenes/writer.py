@@ -132,12 +132,14 @@ class AnimationWriter:
         self._frames.append({"xml": xml, "objects": objects})
         return i
 
-    def finish(self, radar_position, radar_orientation) -> Path:
-        """Write ``animation.json`` with the default radar pose (position m, orientation rad)."""
+    def finish(self, radar_position, radar_orientation, extra: dict | None = None) -> Path:
+        """Write ``animation.json`` with the default radar pose (position m, orientation rad) and
+        ``extra`` top-level fields (e.g. ``"source"``; the loader ignores fields it does not know)."""
         if not self._frames:
             raise ValueError("AnimationWriter: no frame written")
         return write_animation(self.root, self._frames, self.fps,
-                               RadarPose(np.asarray(radar_position, float), np.asarray(radar_orientation, float)))
+                               RadarPose(np.asarray(radar_position, float), np.asarray(radar_orientation, float)),
+                               extra=extra)
 
     def _check_material(self, material):
         if material not in self.materials:
