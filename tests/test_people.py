@@ -11,9 +11,11 @@ per-person truth.
 * Three people walking towards a ``walk-77ghz`` radar (12 virtual channels in a row of
   :math:`\lambda/2`: azimuth resolution :math:`2/(N_v\cos\varphi)` = 0.167 rad at boresight; range bin
   :math:`c/2B` = 9.76 cm) through the path engine: the three strongest peaks of the range-azimuth map
-  (static clutter removed) are the three people, each within one range bin of the range of its
-  thorax's surface facing the radar (the torso centroid's range less the torso's depth towards
-  the radar, from the scene's own mesh) and within one azimuth resolution of its centroid's azimuth.
+  (static clutter removed) that lie farther apart than a body's size (:data:`BODY_SIZE`: peaks closer
+  than that to a stronger one are the same person, e.g. its thorax and a swinging arm two range bins
+  behind) are the three people, each within one range bin of the range of its thorax's surface
+  facing the radar (the torso centroid's range less the torso's depth towards the radar, from the
+  scene's own mesh) and within one azimuth resolution of its centroid's azimuth.
 * The run store: the ``person`` and ``joint`` coordinates, ``joint_position`` equal to the manifest's
   keypoints, ``object_person``, ``person_activity``, ``person_count``; a store without them still reads.
 """
@@ -126,6 +128,10 @@ def test_a_bvh_file_as_an_activity(tmp_path):
 
 
 # =========================================================================== through the path engine
+#: A walking adult's horizontal extent (m): shoulder width and the arms' and legs' swing, about 0.6 m.
+BODY_SIZE = 0.6
+
+
 @pytest.fixture(scope="module")
 def three_people(tmp_path_factory):
     from sionnafmcw import PathEngine, RadarConfig, simulate
@@ -149,7 +155,14 @@ def test_three_people_resolved_in_range_azimuth(three_people):
     anim, radar, run = three_people
     ra = processing.range_azimuth_map(run.cube(0), radar, clutter_removal=True)
     peaks = np.argwhere(processing.local_maxima(ra.power, size=(5, 9), modes=("reflect", "reflect")))
-    strongest = peaks[np.argsort(ra.power[tuple(peaks.T)])[::-1][:3]]
+    peaks = peaks[np.argsort(ra.power[tuple(peaks.T)])[::-1]]
+    xy = np.stack([ra.ranges[peaks[:, 0]] * np.cos(ra.azimuths[peaks[:, 1]]),
+                   ra.ranges[peaks[:, 0]] * np.sin(ra.azimuths[peaks[:, 1]])], -1)
+    people = []                                     # strongest first; a peak within a body's size of a kept one is its person's
+    for i in range(len(peaks)):
+        if all(np.linalg.norm(xy[i] - xy[j]) > BODY_SIZE for j in people):
+            people.append(i)
+    strongest = peaks[people[:3]]
     range_bin = ra.ranges[1] - ra.ranges[0]
     n_v = len(uniform_azimuth_row(radar)[0])                 # virtual channels in the azimuth row
     ranges, azimuths = run.truth_in_radar_frame(0)

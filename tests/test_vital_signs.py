@@ -136,11 +136,11 @@ def test_sub_millimetre_steps_survive_the_path_engine(tmp_path):
     carrier, within the spread of the samples' path-length changes, :math:`\Delta d\cos\theta` to
     :math:`\Delta d/\cos\theta` (:math:`\theta` up to the plate corners' 4.0 degrees, relative 2.5e-3), plus
     float32 vertex rounding; synthesised (the plate's own echoes) and range-transformed, its bin turns by
-    the same at the sweep centre's wavelength, give or take the PO merge's beat phase: a contribution
-    merged into a cell of :math:`\delta\tau` = 1/256 of the range resolution keeps its carrier phase
-    exactly but takes the cell's mean delay into the beat, :math:`\le \pi B\delta\tau = \pi/256` rad in
-    each frame (:func:`~sionnafmcw.engines.po_render.merge_contributions`), and the plate's samples change
-    cells as it moves."""
+    the same at the sweep centre's wavelength, give or take the PO merge's beat phase: a merged
+    contribution keeps its carrier phase exactly but takes its cell's mean delay into the beat; the
+    merge's cells keep that within its share of the noise budget
+    (:func:`~sionnafmcw.engines.po_merge.merge_contributions`), far below the pi/256 rad per frame
+    allowed here (and the plate's samples change cells as it moves)."""
     from sionnafmcw import PathEngine
 
     radar = small_radar()
@@ -172,26 +172,29 @@ def test_sub_millimetre_steps_survive_the_path_engine(tmp_path):
 
 
 def test_po_merge_keeps_the_carrier_phase():
-    from sionnafmcw.engines.po_render import MERGE_FRACTION, merge_contributions
+    """A patch of chest merged into the coarsest cells (an unlimited budget: the merge's own error bound
+    is tested in tests/test_po_merge.py) keeps the channel at the carrier exactly, so a 0.1 mm step of
+    the chest turns the merged channel by exactly 4 pi d / lambda."""
+    from sionnafmcw.engines.po_merge import FRACTIONS, merge_contributions
 
     radar = RadarConfig.preset("walk-77ghz")
     rng = np.random.default_rng(5)
     p = 4000
     tau = 2 * (1.0 + rng.uniform(0.0, 0.3, p)) / SPEED_OF_LIGHT       # a patch of chest 1.0-1.3 m away
-    a = (rng.normal(size=p) + 1j * rng.normal(size=p))[None, None] * 1e-4
-    dop = rng.normal(0, 5.0, p)[None, None]
+    m, n = radar.num_tx, radar.num_rx
+    a = np.broadcast_to((rng.normal(size=p) + 1j * rng.normal(size=p)) * 1e-4, (m, n, p)).copy()
+    dop = np.broadcast_to(rng.normal(0, 5.0, p), (m, n, p)).copy()
     labels = np.array(["torso"] * p)
+    directions = np.tile([1.0, 0.0, 0.0], (p, 1))                      # the chest seen along the boresight
     shift = 2 * 1e-4 / SPEED_OF_LIGHT                                   # 0.1 mm further
-    cell = MERGE_FRACTION / radar.bandwidth
     carrier = []
     for dt in (0.0, shift):
-        t = (tau + dt)[None, None]
-        ma, mt, _, _ = merge_contributions(a, t, dop, labels, delay_cell=cell, doppler_cell=MERGE_FRACTION /
-                                           radar.cpi_duration, frequency=radar.fc)
-        assert ma.shape[-1] < p                                         # it did merge
+        t = np.broadcast_to(tau + dt, (m, n, p)).copy()
+        merged = merge_contributions(a, t, dop, labels, directions, radar, budget=np.inf)
+        assert merged.fraction == FRACTIONS[0] and merged.a.shape[-1] < p          # it did merge
         # Sionna's a holds no carrier phase: the channel at the carrier is sum a exp(-j 2 pi f_c tau)
-        carrier.append(np.sum(ma * np.exp(-2j * np.pi * radar.fc * mt)))
-        assert carrier[-1] == pytest.approx(np.sum(a * np.exp(-2j * np.pi * radar.fc * t)), rel=1e-9)
+        carrier.append(np.sum(merged.a[0, 0] * np.exp(-2j * np.pi * radar.fc * merged.tau[0, 0])))
+        assert carrier[-1] == pytest.approx(np.sum(a[0, 0] * np.exp(-2j * np.pi * radar.fc * t[0, 0])), rel=1e-9)
     turn = np.angle(carrier[0] / carrier[1])
     assert turn == pytest.approx(2 * np.pi * radar.fc * shift, abs=1e-9)
     assert 2 * np.pi * radar.fc * shift == pytest.approx(4 * np.pi * 1e-4 * radar.fc / SPEED_OF_LIGHT)

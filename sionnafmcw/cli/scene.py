@@ -6,6 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from .common import Parser, UserError, key_values
+from ..scenes.meshes import BODY_MESH_EDGE
 
 HELP = "Build or list the scenarios (animation directories written by code), or turn a BVH clip into one."
 EPILOG = """\
@@ -74,8 +75,9 @@ def add_parser(add) -> None:
     q.add_argument("--height", type=float, default=None, metavar="M",
                    help="stature for the body's girths (default: from the skeleton's legs)")
     q.add_argument("--build", choices=("male", "female"), default="male", help="girths of men or women")
-    q.add_argument("--mesh-edge", type=float, default=0.008, metavar="M",
-                   help="largest triangle edge of the body meshes (default 0.008)")
+    q.add_argument("--mesh-edge", type=float, default=BODY_MESH_EDGE, metavar="M",
+                   help=f"largest triangle edge of the body meshes (default {BODY_MESH_EDGE}: the engines render "
+                        "their smooth surface)")
     q.add_argument("--room", action="store_true", help="put a closed room around the person and the radar")
     q.add_argument("--route", choices=("numpy", "blender"), default="numpy",
                    help="numpy forward kinematics (default) or Blender's BVH importer")

@@ -42,7 +42,7 @@ and the valid paths come out as numpy (:mod:`~sionnafmcw.engines.traced_paths`, 
 the specular copies Sionna returns twice).
 
 Which surfaces each part sees, and the resolution each needs
------------------------------------------------------------
+------------------------------------------------------------
 * **The direct echo and the PO multibounce** see every object's smooth surface
   (:mod:`~sionnafmcw.engines.surfaces`, built once in its own frame): the mesh's vertex normals
   rebuilt as curved PN triangles and tessellated until no sub-facet departs from it by more than

@@ -55,10 +55,12 @@ the way down, where the gastrocnemius is); upper arm :math:`(0.5, \text{biceps})
 
 Meshes and normals
 ------------------
-The meridian (cap, profile, cap) is cut into equal arcs of at most :math:`e/\sqrt2` and the
+The meridian (cap, profile, cap) is cut into arcs of at most :math:`e/\sqrt2` and the
 circumference into equal arcs of at most :math:`e/\sqrt 2` at the largest radius, so every
 triangle edge is at most :math:`e` (``max_edge``), as :mod:`sionnafmcw.scenes.meshes` does for
-its ellipsoids. Vertex normals are the exact normals of the smooth surface (profile:
+its ellipsoids; no step turns the normal by more than
+:data:`~sionnafmcw.scenes.meshes.MAX_NORMAL_TURN` (the caps and the feet, where the radius of
+curvature is a few centimetres). Vertex normals are the exact normals of the smooth surface (profile:
 :math:`\propto (-r'(s), 1)` in (axial, radial); caps and ellipsoids: their gradients), which the
 physical-optics render interpolates.
 
@@ -145,12 +147,17 @@ def limb_profile(kind: str, length: float, build: str, height: float) -> Parabol
     return profile
 
 
-def _equal_arcs(points, spacing: float, minimum: int) -> np.ndarray:
-    """The dense polyline ``points [N, K]`` (its first two columns the curve, the others carried along)
-    cut into ``n >= minimum`` equal arcs of at most ``spacing``: the cut points ``[n + 1, K]``."""
-    seg = np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1)
-    arc = np.concatenate([[0.0], np.cumsum(seg)])
-    n = max(minimum, int(math.ceil(arc[-1] / spacing - 1e-9)))
+def _equal_arcs(points, spacing: float, minimum: int, max_turn: float | None = None) -> np.ndarray:
+    r"""The dense polyline ``points [N, K]`` (its first two columns the curve, the next two its unit
+    normal when ``max_turn`` is given, the others carried along) cut into ``n >= minimum`` arcs of at
+    most ``spacing`` each turning the normal by at most ``max_turn`` (rad): equal steps of
+    :math:`\int\max(ds/h,\ d\psi/\psi_{max})`; the cut points ``[n + 1, K]``."""
+    step = np.linalg.norm(np.diff(points[:, :2], axis=0), axis=1) / spacing
+    if max_turn is not None:
+        cos = np.clip(np.einsum("ij,ij->i", points[1:, 2:4], points[:-1, 2:4]), -1.0, 1.0)
+        step = np.maximum(step, np.arccos(cos) / max_turn)
+    arc = np.concatenate([[0.0], np.cumsum(step)])
+    n = max(minimum, int(math.ceil(arc[-1] - 1e-9)))
     targets = np.linspace(0.0, arc[-1], n + 1)
     return np.stack([np.interp(targets, arc, points[:, k]) for k in range(points.shape[1])], axis=1)
 
@@ -189,11 +196,14 @@ def revolved_limb(p0, p1, profile: ParabolicProfile, max_edge: float):
     cap1 = np.stack([c1 + rho1 * np.cos(t), rho1 * np.sin(t), np.cos(t), np.sin(t)], 1)
     meridian = np.concatenate([cap0, body[1:], cap1[1:]])
     h = max_edge / math.sqrt(2.0)
-    cut = _equal_arcs(meridian, h, 8)          # [n + 1, 4]: s, r, n_axial, n_radial (interpolated)
+    # [n + 1, 4]: s, r, n_axial, n_radial (interpolated); steps turn the normal by MAX_NORMAL_TURN at most
+    cut = _equal_arcs(meridian, h, 8, meshes.MAX_NORMAL_TURN)
     nrm = np.hypot(cut[:, 2], cut[:, 3])
     cut[:, 2:] /= nrm[:, None]
     rings = cut[1:-1]
-    n_seg = max(8, int(math.ceil(2 * math.pi * float(rings[:, 1].max()) / h - 1e-9)))
+    # around: arcs of at most h at the largest radius and at most MAX_NORMAL_TURN of the normal
+    n_seg = max(8, int(math.ceil(2 * math.pi * float(rings[:, 1].max()) / h - 1e-9)),
+                int(math.ceil(2 * math.pi / meshes.MAX_NORMAL_TURN - 1e-9)))
     phi = np.linspace(0.0, 2 * math.pi, n_seg, endpoint=False)
     radial = np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2        # [n_seg, 3]
     verts = [p0 + cut[0, 0] * d]
@@ -234,7 +244,7 @@ def ellipsoid_surface(centre, radii, rotation, max_edge: float):
     of the local coordinates."""
     radii = np.asarray(radii, float)
     rotation = np.asarray(rotation, float)
-    theta, phi = meshes.ellipsoid_grid(radii, max_edge)
+    theta, phi = meshes.ellipsoid_grid(radii, max_edge, meshes.MAX_NORMAL_TURN)
     local, faces = meshes.ellipsoid((0.0, 0.0, 0.0), radii, theta=theta, phi=phi)
     n = local / radii ** 2
     n /= np.linalg.norm(n, axis=1, keepdims=True)

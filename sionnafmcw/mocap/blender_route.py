@@ -102,7 +102,7 @@ def export_with_blender(person, bvh, out, radar_position, radar_orientation, ski
     # the person's labels as the numpy route writes them (its keypoints: the routes agree on every vertex)
     from ..animation.people import people_entry
     from ..scenes.keypoints import KEYPOINTS
-    from ..scenes.people import clip_label
+    from .library import clip_label
 
     data["people"] = people_entry(KEYPOINTS, [{"name": "person0", "prefix": "", "objects": person.segment_names,
                                                "activity": clip_label(str(bvh)), "height_m": person.body.height,

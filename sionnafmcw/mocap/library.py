@@ -84,4 +84,11 @@ def load_clip(name: str) -> BvhClip:
     return read_bvh(clip_info(name).path)
 
 
-__all__ = ["ACKNOWLEDGEMENT", "CLIPS", "CLIP_DIR", "ClipInfo", "POSTURES", "clip_info", "load_clip"]
+def clip_label(ref: str) -> str:
+    """The activity label of a person playing clip ``ref``: a shipped clip's activity (``08_10``: ``walk``,
+    also for a copy of it under its CMU name), else the file's name without its extension."""
+    stem = Path(ref).stem
+    return CLIPS[stem].activity if stem in CLIPS else stem
+
+
+__all__ = ["ACKNOWLEDGEMENT", "CLIPS", "CLIP_DIR", "ClipInfo", "POSTURES", "clip_info", "clip_label", "load_clip"]

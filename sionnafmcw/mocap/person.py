@@ -40,6 +40,7 @@ import math
 import numpy as np
 
 from ..animation.rigid import RigidMotion, angular_velocity, area_centroid, transform_matrix
+from ..scenes import meshes
 from .segments import SegmentBody
 from .bvh import BvhClip
 from .skeleton import CMU_UNIT, Y_UP_TO_Z_UP, ClipMotion, placement_matrix
@@ -174,8 +175,8 @@ class MocapPerson(_Person):
 
     def __init__(self, clip: BvhClip, unit: float = CMU_UNIT, fps: float = 30.0, num_frames: int | None = None,
                  start: float | None = None, playback_rate: float = 1.0, position=(0.0, 0.0), heading: float = 0.0,
-                 floor: bool = True, height: float | None = None, build: str = "male", mesh_edge: float = 0.008,
-                 velocity_step: float = VELOCITY_STEP_FRAMES, axes=Y_UP_TO_Z_UP, reverse: bool = False,
+                 floor: bool = True, height: float | None = None, build: str = "male",
+                 mesh_edge: float = meshes.BODY_MESH_EDGE, velocity_step: float = VELOCITY_STEP_FRAMES, axes=Y_UP_TO_Z_UP, reverse: bool = False,
                  skip_first_frame: bool = True):
         where = clip.path or "BVH clip"
         if not (fps > 0 and math.isfinite(fps)):
@@ -259,7 +260,7 @@ class PosedPerson(_Person):
 
     def __init__(self, clip: BvhClip, posture_time: float, fps: float, num_frames: int, unit: float = CMU_UNIT,
                  position=(0.0, 0.0), heading: float = 0.0, floor: bool = True, height: float | None = None,
-                 build: str = "male", mesh_edge: float = 0.008, velocity_step: float = 0.01, movements=(),
+                 build: str = "male", mesh_edge: float = meshes.BODY_MESH_EDGE, velocity_step: float = 0.01, movements=(),
                  axes=Y_UP_TO_Z_UP):
         if num_frames < 1:
             raise ValueError(f"PosedPerson: num_frames must be >= 1, got {num_frames}")

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..scenes import meshes
 from .bvh import read_bvh
 from .person import MocapPerson, add_person
 from .skeleton import CMU_UNIT
@@ -121,7 +122,7 @@ def room_around(points, margin: float, height: float):
 def bvh_to_animation(bvh, out, route: str = "numpy", fps: float = 30.0, num_frames: int | None = None,
                      start: float | None = None, unit: float = CMU_UNIT, position=(0.0, 0.0), heading: float = 0.0,
                      radar_distance: float = 3.0, radar_height: float = 1.0, radar_pose=None,
-                     height: float | None = None, build: str = "male", mesh_edge: float = 0.008,
+                     height: float | None = None, build: str = "male", mesh_edge: float = meshes.BODY_MESH_EDGE,
                      skin_scattering: float = 0.3, room: bool = False, room_margin: float = 1.0,
                      velocity_step: float = 0.5, python=None, timeout: float | None = None) -> Path:
     """A BVH file as an animation directory at ``out`` (one person, :class:`~.person.MocapPerson`'s
@@ -157,7 +158,7 @@ def bvh_to_animation(bvh, out, route: str = "numpy", fps: float = 30.0, num_fram
         return export_with_blender(person, Path(bvh), out, radar_position, orientation,
                                    skin_scattering=skin_scattering, room_box=box, python=python, timeout=timeout)
     with atomic_directory(out, replace=True) as tmp:
-        from ..scenes.people import clip_label
+        from .library import clip_label
 
         write_people(tmp, [(person, "")], radar_position, orientation, skin_scattering, room_box=box,
                      extra={"mocap": source}, activities=[clip_label(str(bvh))],

@@ -60,6 +60,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..scenes import meshes
+
 from . import anatomy
 from .skeleton import ClipMotion
 
@@ -124,7 +126,7 @@ class SegmentBody:
     """
 
     def __init__(self, motion: ClipMotion, height: float | None = None, build: str = "male",
-                 max_edge: float = 0.008):
+                 max_edge: float = meshes.BODY_MESH_EDGE):
         if build not in anatomy.BUILDS:
             raise ValueError(f"SegmentBody: build {build!r} is unknown; choose one of {', '.join(anatomy.BUILDS)}")
         if not (0.001 <= max_edge <= 0.2):

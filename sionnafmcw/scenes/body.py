@@ -117,13 +117,10 @@ from .gait import RV_MAX, BoulicGait, GaitTiming
 #: Central-difference step (s) for velocities.
 VELOCITY_STEP = 1e-5
 
-#: Default largest triangle edge (m) of the body meshes, from the PO convergence study
-#: (module docstring, *Mesh resolution*).
-MESH_EDGE = 0.032
-#: Largest turn (rad) of the surface normal over one grid step of a segment mesh (module docstring,
-#: *Mesh resolution*): where a segment's radius of curvature :math:`\rho` is small (the foot's toe and
-#: heel, :math:`\rho` = 9 mm) its steps are kept to :math:`\psi_{max}\rho` whatever the edge length.
-MAX_NORMAL_TURN = 0.6
+#: Default largest triangle edge (m) of the segment meshes (module docstring, *Mesh resolution*).
+MESH_EDGE = meshes.BODY_MESH_EDGE
+#: Largest turn of the normal over one grid step (:data:`.meshes.MAX_NORMAL_TURN`).
+MAX_NORMAL_TURN = meshes.MAX_NORMAL_TURN
 
 # ----------------------------------------------------------------------------- anthropometry
 RATIOS = {

@@ -11,7 +11,7 @@ activity            person
 ``run`` ...         the activity library's motion capture (:mod:`sionnafmcw.scenes.activities`: ``run``, ``sit_down``,
 ``pick_up``         ``stand_up``, ``wave``, ``jump``, ``fall``, ``pick_up``), from ``time_offset``
 ``clip``            ``clip``: a shipped clip's name or the path of any BVH file (from its frame 1);
-                    labelled with the shipped clip's activity, else the file's name (:func:`clip_label`)
+                    labelled with the shipped clip's activity, else the file's name (:func:`~sionnafmcw.mocap.library.clip_label`)
 ``stand_still``     standing still: postural sway, breathing and heartbeat (:mod:`sionnafmcw.scenes.vitals`)
 ``vital_signs``     still in ``posture`` (sitting, lying, standing), breathing and heartbeat
 ==================  =========================================================================
@@ -58,6 +58,7 @@ from pathlib import Path
 import numpy as np
 
 from . import furniture as furniture_mod
+from ..mocap.library import clip_label
 from .activities import SWAY_DEFAULT, WINDOWS, mocap_person, still_person
 from .body import MESH_EDGE, CircleTrack, LineTrack, WalkingPerson
 from .layout import discs_apart
@@ -376,14 +377,5 @@ def people(out, **p):
                  activities=labels, furniture=pieces, person_info=infos)
 
 
-def clip_label(ref: str) -> str:
-    """The activity label of a person playing clip ``ref``: a shipped clip's activity (``08_10``: ``walk``,
-    also for a copy of it under its CMU name), else the file's name without its extension."""
-    from ..mocap.library import CLIPS
-
-    stem = Path(ref).stem
-    return CLIPS[stem].activity if stem in CLIPS else stem
-
-
-__all__ = ["ACTIVITIES", "PARAMETERS", "activity_list", "clip_label", "make_person", "people", "place_people",
+__all__ = ["ACTIVITIES", "PARAMETERS", "activity_list", "make_person", "people", "place_people",
            "placed_footprints", "room_box"]
