@@ -7,7 +7,16 @@ contribution :math:`p` (a propagation path, or a pixel), at the start of the CPI
   :math:`e^{-j2\pi f_c\tau}`), so that :math:`P_r = P_t |a|^2`;
 * ``tau[m, n, p]``: delay (s);
 * ``doppler[m, n, p]``: Doppler shift (Hz), positive for an approaching reflector, so that the
-  delay evolves as :math:`\tau(t) = \tau_0 - (f_D/f_c)(t - t_n)`.
+  delay evolves as :math:`\tau(t) = \tau_0 - (f_D/f_c)(t - t_n)`;
+* ``doppler_rate[m, n, p]`` (optional, keyword): the Doppler shift's rate of change
+  :math:`\dot f_D` (Hz/s) at the CPI start, for motion within the CPI (issue 24): the delay then
+  follows the second-order model
+
+  .. math:: \tau(t) = \tau_0 - \frac{f_D}{f_c}(t - t_n) - \frac{\dot f_D}{f_c}\frac{(t - t_n)^2}{2},
+
+  i.e. :math:`f_D = -\dot L/\lambda` and :math:`\dot f_D = -\ddot L/\lambda` for a contribution
+  whose path length is :math:`L(t)` (:mod:`sionnafmcw.kinematics`). None (default): every rate
+  zero, the CPI frozen at the frame's velocities (the model before issue 24).
 
 Tx is in physical element order. Zero-gain entries are padding (Sionna pads per-link path
 lists to a common length).
@@ -31,7 +40,13 @@ with :math:`\lambda = c/f_c`, :math:`R^t_{mp} = \|\mathbf p_p - \mathbf t_m\|`,
 for Rx) and :math:`G_t, G_r` the element pattern gains towards the target. The target moves
 radially: :math:`\mathbf v_p = \dot R_p\,\hat{\mathbf u}_p` with :math:`\dot R_p` positive receding.
 Monostatically this gives :math:`P_r = P_t G^2\lambda^2\sigma/((4\pi)^3R^4)` and
-:math:`f_D = -2\dot R/\lambda`.
+:math:`f_D = -2\dot R/\lambda`. With a radial acceleration :math:`\ddot R_p` as well
+(``radial_accelerations``), :math:`\mathbf a_p = \ddot R_p\hat{\mathbf u}_p` and every element's
+range acceleration is :math:`\ddot R^t_{mp} = \hat{\mathbf u}^t_{mp}\cdot\mathbf a_p
++ (|\mathbf v_p|^2 - (\hat{\mathbf u}^t_{mp}\cdot\mathbf v_p)^2)/R^t_{mp}`
+(:func:`sionnafmcw.kinematics.range_acceleration`), so that
+:math:`\dot f_{D,mnp} = -(\ddot R^t_{mp} + \ddot R^r_{np})/\lambda`, monostatically
+:math:`-2\ddot R/\lambda`: over a CPI :math:`T` the Doppler sweeps :math:`2\ddot R T/\lambda`.
 """
 
 from __future__ import annotations
@@ -68,12 +83,14 @@ def target_direction(azimuth, elevation) -> np.ndarray:
 
 @dataclass
 class Echoes:
-    """Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start.
+    r"""Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start.
 
     Parameters
     ----------
     a, tau, doppler : array_like ``[num_tx, num_rx, num_contributions]``
         Complex gain, delay (s) and Doppler shift (Hz), see the module docstring.
+    doppler_rate : array_like ``[num_tx, num_rx, num_contributions]``, keyword, optional
+        :math:`\dot f_D` (Hz/s) at the CPI start (module docstring); None: zero (frozen CPI).
     labels : array_like, optional
         ``[num_contributions]`` (kept as a read-only broadcast view ``[num_tx, num_rx,
         num_contributions]``) or ``[num_tx, num_rx, num_contributions]``.
@@ -91,6 +108,7 @@ class Echoes:
     tau: np.ndarray
     doppler: np.ndarray
     labels: np.ndarray | None = None
+    doppler_rate: np.ndarray | None = field(default=None, kw_only=True)
     static_count: int = field(default=0, kw_only=True)
     static_key: object = field(default=None, kw_only=True)
 
@@ -100,12 +118,19 @@ class Echoes:
         self.doppler = np.asarray(self.doppler, dtype=np.float64)
         if self.a.ndim != 3:
             raise ValueError(f"Echoes.a must have shape [num_tx, num_rx, num_contributions], got {self.a.shape}")
-        for name in ("tau", "doppler"):
+        names = ("a", "tau", "doppler")
+        if self.doppler_rate is not None:
+            rate = np.asarray(self.doppler_rate, dtype=np.float64)
+            if rate.shape == (self.a.shape[2],):
+                rate = np.broadcast_to(rate, self.a.shape)
+            self.doppler_rate = rate
+            names += ("doppler_rate",)
+        for name in names[1:]:
             if getattr(self, name).shape != self.a.shape:
                 raise ValueError(
                     f"Echoes.{name} has shape {getattr(self, name).shape}, expected {self.a.shape} like Echoes.a"
                 )
-        for name in ("a", "tau", "doppler"):
+        for name in names:
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"Echoes.{name} contains non-finite values")
         if np.any(self.tau[self.a != 0] < 0):
@@ -137,6 +162,17 @@ class Echoes:
             hash(self.static_key)
         except TypeError:
             raise ValueError(f"Echoes.static_key must be hashable, got {type(self.static_key).__name__}") from None
+
+    @property
+    def accelerating(self) -> bool:
+        """True when some contribution has a non-zero :attr:`doppler_rate` (motion within the CPI)."""
+        return self.doppler_rate is not None and bool(np.any(self.doppler_rate))
+
+    def rates(self) -> np.ndarray:
+        """:attr:`doppler_rate`, or zeros ``[num_tx, num_rx, num_contributions]`` (a read-only view) when None."""
+        if self.doppler_rate is not None:
+            return self.doppler_rate
+        return np.broadcast_to(np.zeros(1), self.a.shape)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -178,6 +214,9 @@ class Echoes:
         out.a = np.concatenate([p.a for p in parts], axis=2)
         out.tau = np.concatenate([p.tau for p in parts], axis=2)
         out.doppler = np.concatenate([p.doppler for p in parts], axis=2)
+        out.doppler_rate = None
+        if any(p.doppler_rate is not None for p in parts):
+            out.doppler_rate = np.concatenate([p.rates() for p in parts], axis=2)
         out.labels = labels
         out.static_count, out.static_key = parts[0].static_count, parts[0].static_key
         return out
@@ -189,7 +228,19 @@ class Echoes:
         if self.labels is not None:
             labels = np.asarray(self.labels)
             labels = labels[0, 0, mask] if _per_contribution(labels) else labels[..., mask]
-        return Echoes(self.a[..., mask], self.tau[..., mask], self.doppler[..., mask], labels)
+        rate = None if self.doppler_rate is None else self.doppler_rate[..., mask]
+        return Echoes(self.a[..., mask], self.tau[..., mask], self.doppler[..., mask], labels, doppler_rate=rate)
+
+    def frozen(self) -> "Echoes":
+        """The same contributions without Doppler rates (the CPI frozen at the frame's velocities); the
+        static block and labels are kept."""
+        if self.doppler_rate is None:
+            return self
+        import copy
+
+        out = copy.copy(self)
+        out.doppler_rate = None
+        return out
 
     def received_power(self, tx_power: float) -> np.ndarray:
         """:math:`P_t |a|^2` per element pair and contribution (W)."""
@@ -214,8 +265,8 @@ class Echoes:
 
     @classmethod
     def point_targets(cls, radar, ranges, radial_velocities, azimuths, elevations=0.0, rcs=1.0,
-                      labels=None) -> "Echoes":
-        """Ideal point targets in the radar frame (see the module docstring for the model).
+                      labels=None, radial_accelerations=None) -> "Echoes":
+        r"""Ideal point targets in the radar frame (see the module docstring for the model).
 
         Parameters
         ----------
@@ -224,9 +275,14 @@ class Echoes:
         radial_velocities : array_like, m/s, range rate (positive receding)
         azimuths, elevations : array_like, rad (azimuth positive towards +y)
         rcs : array_like, m^2
+        radial_accelerations : array_like, optional
+            :math:`\ddot R` (m/s^2, along the line of sight): the echoes get Doppler rates (module
+            docstring); None: no Doppler rates (a frozen CPI).
         """
-        ranges, velocities, az, el, rcs = np.broadcast_arrays(
-            *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (ranges, radial_velocities, azimuths, elevations, rcs))
+        accel = 0.0 if radial_accelerations is None else radial_accelerations
+        ranges, velocities, az, el, rcs, accel = np.broadcast_arrays(
+            *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (ranges, radial_velocities, azimuths, elevations, rcs,
+                                                                   accel))
         )
         if np.any(ranges <= 0):
             raise ValueError("point_targets: ranges must be > 0 m")
@@ -251,4 +307,15 @@ class Echoes:
         )
         tau = (r_t[:, None, :] + r_r[None, :, :]) / SPEED_OF_LIGHT
         doppler = -(rate_t[:, None, :] + rate_r[None, :, :]) / wavelength
-        return cls(amplitude.astype(complex), tau, doppler, labels)
+        doppler_rate = None
+        if radial_accelerations is not None:
+            from .kinematics import range_acceleration
+
+            acceleration = accel[:, None] * u
+            zero = np.zeros(3)
+            acc_t = range_acceleration(radar.tx_positions[:, None, :], zero, zero, position[None], velocity[None],
+                                       acceleration[None])   # [M, P]
+            acc_r = range_acceleration(radar.rx_positions[:, None, :], zero, zero, position[None], velocity[None],
+                                       acceleration[None])   # [N, P]
+            doppler_rate = -(acc_t[:, None, :] + acc_r[None, :, :]) / wavelength
+        return cls(amplitude.astype(complex), tau, doppler, labels, doppler_rate=doppler_rate)
