@@ -229,3 +229,58 @@ def test_plots_follow_the_moving_radar(tmp_path, radar):
     assert main(["plot", str(store), "--out", str(tmp_path / "figs"), "--kind", "scene", "--kind", "ra",
                  "--quiet"]) == 0
     assert (tmp_path / "figs" / "scene_top_view.png").exists()
+
+
+# ---------------------------------------------------------------------------------------- Blender
+MOVING_RADAR_BLEND = r'''
+import sys
+import bpy
+out = sys.argv[sys.argv.index("--") + 1]
+bpy.ops.wm.read_factory_settings(use_empty=True)
+scene = bpy.context.scene
+scene.render.fps, scene.render.fps_base = 24, 1.0
+scene.frame_start, scene.frame_end = 1, 9
+me = bpy.data.meshes.new("plate")
+me.from_pydata([(4, -0.2, 0.8), (4, 0.2, 0.8), (4, 0.2, 1.2), (4, -0.2, 1.2)], [], [(0, 1, 2, 3)])
+m = bpy.data.materials.new("Steel")
+m["radio_material"] = "itu:metal"
+me.materials.append(m)
+scene.collection.objects.link(bpy.data.objects.new("plate", me))
+radar = bpy.data.objects.new("radar", None)
+scene.collection.objects.link(radar)
+for frame, x, yaw in ((1, 0.0, 0.0), (9, 1.0, 0.2)):   # 3 m/s along +x, yawing at 0.6 rad/s
+    radar.location, radar.rotation_euler = (x, 0.0, 1.0), (0.0, 0.0, yaw)
+    radar.keyframe_insert("location", frame=frame)
+    radar.keyframe_insert("rotation_euler", frame=frame)
+act = radar.animation_data.action
+curves = list(act.fcurves) if hasattr(act, "fcurves") else [
+    fc for layer in act.layers for strip in layer.strips for bag in strip.channelbags for fc in bag.fcurves]
+for fc in curves:
+    for kp in fc.keyframe_points:
+        kp.interpolation = "LINEAR"
+bpy.ops.wm.save_as_mainfile(filepath=out)
+'''
+
+
+def test_blender_exports_a_moving_radar_as_a_track(tmp_path):
+    """An empty named ``radar`` keyframed (LINEAR) to move at 3 m/s along +x and yaw at 0.6 rad/s: every
+    exported frame has its pose, velocity and angular velocity (central differences: exact for a
+    linear motion, to float32 positions)."""
+    import subprocess
+
+    from sionnafmcw.blender import BLENDER_VENV, export_blend
+
+    python = BLENDER_VENV / "bin" / "python"
+    assert python.exists(), f"{python} is missing: run 'make .venv-blender/.installed'"
+    (tmp_path / "build.py").write_text(MOVING_RADAR_BLEND)
+    proc = subprocess.run([str(python), str(tmp_path / "build.py"), "--", str(tmp_path / "moving.blend")],
+                          capture_output=True, text=True, timeout=180)
+    assert proc.returncode == 0, proc.stdout[-2000:] + proc.stderr[-2000:]
+    animation = load_animation(export_blend(tmp_path / "moving.blend", tmp_path / "anim", timeout=180))
+    assert animation.radar_moves and animation.num_frames == 9
+    for i in range(animation.num_frames):
+        pose = animation.radar_pose_at(i)
+        assert np.allclose(pose.position, [3.0 * i / 24, 0.0, 1.0], atol=1e-5)
+        assert pose.orientation[0] == pytest.approx(0.6 * i / 24, abs=1e-5)
+        assert np.allclose(pose.velocity, [3.0, 0.0, 0.0], atol=1e-3)
+        assert np.allclose(pose.angular_velocity, [0.0, 0.0, 0.6], atol=1e-3)
