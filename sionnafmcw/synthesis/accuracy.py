@@ -126,8 +126,13 @@ def taylor_order(theta: float, tol: float = TAYLOR_TOL) -> int:
     raise _order_error(theta)
 
 
+class OrderError(ValueError):
+    """A residual phase that needs a Taylor order above :data:`MAX_ORDER` (the fast sum of Doppler rates
+    then cuts its chirp block in two, :mod:`.nufft`)."""
+
+
 def _order_error(theta: float) -> ValueError:
-    return ValueError(
+    return OrderError(
         f"beat synthesis: residual phase {theta:.3g} rad needs a Taylor order above {MAX_ORDER}; "
         "the contribution velocities are far outside the radar's design (check Echoes.doppler units: Hz)"
     )

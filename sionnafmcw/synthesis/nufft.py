@@ -81,7 +81,9 @@ swinging foot, far beyond a Taylor series. Two things keep the fast sum exact to
   block's start, exactly), so the sweep about the block's centre is :math:`J^2` times smaller;
   the blocks are disjoint samples, so each may use the whole budget;
 * **accelerating bases** (``_Grid(accelerating=True)``): the residual bases become
-  :math:`l'k'(1 + \varepsilon_1k')`, :math:`k'^2` and :math:`w'^2(1 + \varepsilon_1k')`, the sweep seen at
+  :math:`l'k'(1 + \varepsilon_1k')`, :math:`k'^2` and :math:`w'^2(1 + \varepsilon_1k') - c` (centred on the
+  grid, :math:`c` the mid-range, its constant :math:`K_sc` in each strength's phase: half the Taylor
+  variable's range), the sweep seen at
   each sample's frequency :math:`F(1 + \varepsilon_1k')`, with the residual coefficients
   :math:`(\delta - 2hK_s, \rho - h^2K_s, K_s)`, :math:`h = 1/(T_bF_s)`, so that the sweep's shares of the
   cross, :math:`k'^2` and :math:`l'^2` terms are one Taylor variable; the terms no basis carries
@@ -105,7 +107,7 @@ from math import factorial
 import finufft
 import numpy as np
 
-from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, SynthesisAccuracy, choose_accuracy,
+from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, OrderError, SynthesisAccuracy, choose_accuracy,
                        taylor_order)
 from .phase import PhasePolynomial
 
@@ -179,9 +181,13 @@ class _Grid:
         self.y = (grid_l * (1 + self.eps1 * grid_k) + self.eps2 * grid_k**2).ravel()
         # the time within the block in TDM blocks, w' = l' + k'/(T_b F_s) (module docstring)
         self.time_step = 1.0 / (radar.block_interval * radar.fs)
+        self.sweep_offset = 0.0
         if self.accelerating:   # the sweep and the cross term seen at each sample's frequency F(1 + eps1 k')
             key = 1 + self.eps1 * grid_k
-            self.basis = (grid_l * grid_k * key, grid_k**2, (grid_l + self.time_step * grid_k) ** 2 * key)
+            sweep = (grid_l + self.time_step * grid_k) ** 2 * key
+            # centred on the grid (its constant part goes into each strength's phase): half the range
+            self.sweep_offset = 0.5 * float(sweep.max() + sweep.min())
+            self.basis = (grid_l * grid_k * key, grid_k**2, sweep - self.sweep_offset)
         else:
             self.basis = (grid_l * grid_k, grid_k**2, grid_l**2)
         self.basis_max = tuple(float(np.abs(b).max()) for b in self.basis)
@@ -217,6 +223,7 @@ def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
                 sweep, h = poly.sweep, grid.time_step
                 cross = residual[0]
                 residual = (cross - 2 * h * sweep, residual[1] - h * h * sweep, sweep)
+                poly.phi0 = poly.phi0 + sweep * grid.sweep_offset   # the centred basis's constant
                 dropped = 2 * np.pi * (np.abs(poly.e - grid.eps1 * cross) * grid.remainder_max[0]
                                        + np.abs(poly.d - grid.eps1 * sweep) * grid.remainder_max[1]
                                        + np.abs(poly.k_l - sweep) * grid.remainder_max[2]
@@ -311,10 +318,12 @@ def _accuracy(channels, radar, max_error, nufft_tol, taylor_tol) -> SynthesisAcc
                            max_error, nufft_tol, taylor_tol, max_block_phase=max_b, fixed_phases=fixed)
 
 
-#: Largest Doppler sweep phase (rad) of a contribution inside one chirp block with a noise budget
-#: (:func:`chirp_blocks`), and without one (the tight relative tolerances need order-6 Taylor terms
-#: to reach 1e-8 at 0.2 rad).
-BLOCK_SWEEP_PHASE = 2.0
+#: Largest Doppler sweep phase (rad, about its mean) of a contribution inside one chirp block with a
+#: noise budget (:func:`chirp_blocks`, :func:`rate_classes`), and without one (the tight relative
+#: tolerances need order-6 Taylor terms to reach 1e-8 at 0.2 rad). Measured on three circle-walk frames
+#: with cpi_motion="quadratic" (``benchmarks/cpi_motion.py``): 0.7, 1 and 2 rad within the machine's
+#: noise of one another (2.0-5.2 s per frame's moving echoes on two shared cores).
+BLOCK_SWEEP_PHASE = 1.0
 TIGHT_BLOCK_SWEEP_PHASE = 0.12
 #: Taylor degree a block's sweep should need at most with a noise budget (:func:`chirp_blocks`).
 BLOCK_TAYLOR_ORDER = 4
@@ -324,8 +333,9 @@ def chirp_blocks(echoes, radar, max_error: float | None = None, least: int = 1) 
     r"""The chirp blocks ``[(start, stop), ...]`` of the fast sum of ``echoes`` with Doppler rates.
 
     A contribution's Doppler sweep over a block of :math:`L_J` chirps is
-    :math:`\theta_p = \pi|\dot f_{D,p}|(T_bL_J/2)^2(1 + \varepsilon_1 k'_{max})` at the block's ends (the
-    :math:`K_l` term about the block centre), :math:`J^2` times smaller than over the CPI. The blocks
+    :math:`\theta_p = \tfrac{\pi}{2}|\dot f_{D,p}|(T_bL_J/2)^2(1 + \varepsilon_1 k'_{max})` about its mean
+    (the :math:`K_s` term of the centred sweep basis, module docstring), :math:`J^2` times smaller
+    than over the CPI. The blocks
     are the fewest :math:`J` equal ones (at most one chirp each) with every :math:`\theta_p \le`
     :data:`BLOCK_SWEEP_PHASE` and, with a budget ``max_error``, a Taylor tail at degree
     :data:`BLOCK_TAYLOR_ORDER` (:mod:`.accuracy`,
@@ -340,7 +350,7 @@ def chirp_blocks(echoes, radar, max_error: float | None = None, least: int = 1) 
     if peak == 0.0:
         return [(0, L)]
     keystone = 1 + radar.slope / (radar.fs * radar.centre_frequency) * (radar.num_samples - 1) / 2
-    scale = np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone     # theta over the CPI per Hz/s
+    scale = 0.5 * np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone   # theta over the CPI per Hz/s
     cap = BLOCK_SWEEP_PHASE if max_error is not None else TIGHT_BLOCK_SWEEP_PHASE
     count = int(min(L, max(least, np.ceil(np.sqrt(scale * peak / cap)))))
     if max_error is not None:
@@ -442,7 +452,7 @@ def rate_classes(echoes, radar) -> list[tuple[int, np.ndarray]]:
     blocks the few fast ones need."""
     L = radar.num_chirps
     keystone = 1 + radar.slope / (radar.fs * radar.centre_frequency) * (radar.num_samples - 1) / 2
-    scale = np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone
+    scale = 0.5 * np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone
     rate = np.abs(echoes.rates()) * (echoes.a != 0)
     theta = scale * rate.reshape(-1, rate.shape[-1]).max(axis=0, initial=0.0)
     need = np.ceil(np.sqrt(theta / BLOCK_SWEEP_PHASE))
@@ -485,17 +495,28 @@ def _beat_blocks(echoes, radar, workers, nufft_tol, taylor_tol, max_error, chann
 def _beat_class(echoes, radar, level: int, workers, nufft_tol, taylor_tol, max_error, channels_per_plan, upsampfac,
                 precision, weights):
     """The fast sum of one :func:`rate_classes` group: without rates (``level`` 0) as :func:`beat_nufft` without
-    them, else in at least ``level`` chirp blocks."""
+    them, else in at least ``level`` chirp blocks (:func:`chirp_blocks`); a block whose residual still needs
+    a Taylor order above :data:`~.accuracy.MAX_ORDER` (the sweep with the other residuals and the dropped
+    terms) is summed again as two halves."""
     if level == 0:
         return _beat(echoes, radar, _Grid(radar), workers, nufft_tol, taylor_tol, max_error, channels_per_plan,
                      upsampfac, precision, weights)
     L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
     sums = 1 if weights is None else 2
     out = None
-    for start, stop in chirp_blocks(echoes, radar, max_error, least=level):
+    pending = list(chirp_blocks(echoes, radar, max_error, least=level))
+    while pending:
+        start, stop = pending.pop(0)
         part, sub = _block(echoes, radar, start, stop)
-        cubes = _beat(part, sub, _Grid(sub, accelerating=True), workers, nufft_tol, taylor_tol, max_error,
-                      channels_per_plan, upsampfac, precision, weights)
+        try:
+            cubes = _beat(part, sub, _Grid(sub, accelerating=True), workers, nufft_tol, taylor_tol, max_error,
+                          channels_per_plan, upsampfac, precision, weights)
+        except OrderError:
+            if stop - start == 1:
+                raise
+            middle = (start + stop) // 2
+            pending[:0] = [(start, middle), (middle, stop)]
+            continue
         cubes = (cubes,) if weights is None else cubes
         if out is None:
             out = np.zeros((sums, L, M, N, Ns), dtype=cubes[0].dtype)
