@@ -88,7 +88,8 @@ swinging foot, far beyond a Taylor series. Two things keep the fast sum exact to
   :math:`(\delta - 2hK_s, \rho - h^2K_s, K_s)`, :math:`h = 1/(T_bF_s)`, so that the sweep's shares of the
   cross, :math:`k'^2` and :math:`l'^2` terms are one Taylor variable; the terms no basis carries
   (:math:`E - \varepsilon_1\delta` on :math:`l'k'^2`, :math:`D - \varepsilon_1K_s` on :math:`l'^2k'`,
-  the second-order range migration :math:`K_l - K_s` on :math:`l'^2`, the keystone fit's
+  the second-order range migration :math:`K_l - K_s` on :math:`l'^2`, :math:`G - \varepsilon_1h^2K_s` on
+  :math:`k'^3`, the keystone fit's
   :math:`\varepsilon_1 sB_p` on :math:`l'k'^2` and the degree-3-4 terms of :mod:`.phase`) are bounded
   and charged to the Taylor share (:func:`~.accuracy.choose_accuracy`, ``fixed_phases``).
 
@@ -227,7 +228,7 @@ def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
                 dropped = 2 * np.pi * (np.abs(poly.e - grid.eps1 * cross) * grid.remainder_max[0]
                                        + np.abs(poly.d - grid.eps1 * sweep) * grid.remainder_max[1]
                                        + np.abs(poly.k_l - sweep) * grid.remainder_max[2]
-                                       + np.abs(grid.eps1 * h * h * sweep) * grid.remainder_max[3]
+                                       + np.abs(poly.g - grid.eps1 * h * h * sweep) * grid.remainder_max[3]
                                        + poly.dropped)
             phases = np.empty((3, a.size))
             for i, r in enumerate(residual):
@@ -478,9 +479,11 @@ def _beat_blocks(echoes, radar, workers, nufft_tol, taylor_tol, max_error, chann
     total = sum(strength) or 1.0
     out = None
     for (level, mask), part_strength in zip(classes, strength):
+        if part_strength == 0.0 and out is not None:
+            continue   # only padding (zero gains): nothing to add
         part = Echoes(echoes.a[..., mask], echoes.tau[..., mask], echoes.doppler[..., mask],
                       doppler_rate=echoes.rates()[..., mask] if level else None)
-        budget = None if max_error is None else max_error * part_strength / total
+        budget = None if max_error is None else max_error * max(part_strength / total, 1e-12)
         cubes = _beat_class(part, radar, level, workers, nufft_tol, taylor_tol, budget, channels_per_plan, upsampfac,
                             precision, None if weights is None else weights[..., mask])
         cubes = (cubes,) if weights is None else cubes
@@ -497,7 +500,7 @@ def _beat_class(echoes, radar, level: int, workers, nufft_tol, taylor_tol, max_e
     """The fast sum of one :func:`rate_classes` group: without rates (``level`` 0) as :func:`beat_nufft` without
     them, else in at least ``level`` chirp blocks (:func:`chirp_blocks`); a block whose residual still needs
     a Taylor order above :data:`~.accuracy.MAX_ORDER` (the sweep with the other residuals and the dropped
-    terms) is summed again as two halves."""
+    terms) is summed again as two halves, and a single chirp that still does by the direct sum."""
     if level == 0:
         return _beat(echoes, radar, _Grid(radar), workers, nufft_tol, taylor_tol, max_error, channels_per_plan,
                      upsampfac, precision, weights)
@@ -512,8 +515,18 @@ def _beat_class(echoes, radar, level: int, workers, nufft_tol, taylor_tol, max_e
             cubes = _beat(part, sub, _Grid(sub, accelerating=True), workers, nufft_tol, taylor_tol, max_error,
                           channels_per_plan, upsampfac, precision, weights)
         except OrderError:
-            if stop - start == 1:
-                raise
+            if stop - start == 1:   # the dropped terms alone exceed the Taylor share: this chirp exactly
+                from .direct import beat_direct
+
+                cube = beat_direct(part, sub, weights=weights)
+                cubes = cube if weights is not None else cube.astype(np.complex128)
+                cubes = (cubes,) if weights is None else cubes
+                if out is None:
+                    out = np.zeros((sums, L, M, N, Ns), dtype=np.complex128)
+                out = out.astype(np.complex128, copy=False)
+                for o, c in enumerate(cubes):
+                    out[o, start:stop] = c
+                continue
             middle = (start + stop) // 2
             pending[:0] = [(start, middle), (middle, stop)]
             continue

@@ -51,14 +51,14 @@ rate there and :math:`\tau_a = \tau_0 - \nu t_a - \beta t_a^2/2`,
     K_u &= -\left[\mu\nu_a(1 + \nu_a/2) + \tfrac{\beta}{2}(F - \mu\tau_a)\right]/F_s^2,\\
     K_l &= -\tfrac{T_b^2}{2}\left[\beta(F - \mu\tau_a) + \mu\nu_a^2\right], &
     D &= -\mu\beta T_b^2(1 + 3\nu_a)/(2F_s), &
-    E &= -\mu\beta T_b(1 + 3\nu_a/2)/F_s^2
+    E &= -\mu\beta T_b(1 + 3\nu_a/2)/F_s^2, \qquad G = -\mu\beta(1 + \nu_a)/(2F_s^3)
 
-(the terms :math:`D\,l^2k'` and :math:`E\,lk'^2`), and terms of degree 3 and 4 in :math:`(w, u)`
-that the polynomial leaves out and bounds (:attr:`PhasePolynomial.dropped`, cycles on the grid):
+(the terms :math:`D\,l^2k'`, :math:`E\,lk'^2` and :math:`G\,k'^3`), and terms of degree 3 and 4 in
+:math:`(w, u)` that the polynomial leaves out and bounds (:attr:`PhasePolynomial.dropped`, cycles on
+the grid):
 
 .. math::
-    \tfrac{|\mu\beta|}{2}(1 + |\nu_a|)u_{max}^3 + \tfrac{|\mu\nu_a\beta|}{2}\big((L-1)T_b\big)^3
-    + \tfrac{|\mu|\beta^2}{8}(w_{max} + u_{max})^4,
+    \tfrac{|\mu\nu_a\beta|}{2}\big((L-1)T_b\big)^3 + \tfrac{|\mu|\beta^2}{8}(w_{max} + u_{max})^4,
 
 :math:`u_{max} = (N_s-1)/(2F_s)`, :math:`w_{max} = (L-1)T_b + u_{max}`: some :math:`10^{-7}`
 cycles for 150 m/s^2 over the whole CPI of ``walk-77ghz``. :math:`K_l` now
@@ -108,6 +108,7 @@ class PhasePolynomial:
     k_l: np.ndarray
     d: np.ndarray | None = None
     e: np.ndarray | None = None
+    g: np.ndarray | None = None          # the k'^3 coefficient (a Doppler rate within the chirp)
     dropped: np.ndarray | None = None
     sweep: np.ndarray | None = None      # K_s = -beta (F - mu tau_a) T_b^2 / 2: the Doppler sweep's share of K_l
 
@@ -136,8 +137,7 @@ class PhasePolynomial:
         u_max = (radar.num_samples - 1) / (2 * fs)
         w_max = (radar.num_chirps - 1) * t_b + u_max
         mb = np.abs(mu * beta)
-        dropped = (0.5 * mb * (1 + np.abs(nu_a)) * u_max**3 + 0.5 * mb * np.abs(nu_a) * ((w_max - u_max) ** 3)
-                   + abs(mu) * beta**2 * (w_max + u_max) ** 4 / 8)
+        dropped = 0.5 * mb * np.abs(nu_a) * ((w_max - u_max) ** 3) + abs(mu) * beta**2 * (w_max + u_max) ** 4 / 8
         return cls(
             phi0=f_mid * tau_a - 0.5 * mu * tau_a**2,
             a=(mu * tau_a * (1 + nu_a) - f_mid * nu_a) / fs,
@@ -147,6 +147,7 @@ class PhasePolynomial:
             k_l=-0.5 * t_b**2 * (sweep + mu * nu_a**2),
             d=-mu * beta * t_b**2 * (1 + 3 * nu_a) / (2 * fs),
             e=-mu * beta * t_b * (1 + 1.5 * nu_a) / fs**2,
+            g=-mu * beta * (1 + nu_a) / (2 * fs**3),
             dropped=dropped,
             sweep=-0.5 * t_b**2 * sweep,
         )
@@ -172,6 +173,7 @@ class PhasePolynomial:
             k_l=self.k_l,
             d=self.d,
             e=self.e,
+            g=self.g,
             dropped=self.dropped,
             sweep=self.sweep,
         )
@@ -182,5 +184,5 @@ class PhasePolynomial:
         out = (self.phi0 + self.a * k + self.b * l + self.c * l * k
                + self.k_u * k**2 + self.k_l * l**2)
         if self.d is not None:
-            out = out + self.d * l**2 * k + self.e * l * k**2
+            out = out + self.d * l**2 * k + self.e * l * k**2 + self.g * k**3
         return out
