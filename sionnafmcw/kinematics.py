@@ -17,9 +17,8 @@ gives :math:`R\dot R = \mathbf d\cdot\Delta\mathbf v`, and once more
     \dot R = \hat{\mathbf s}\cdot\Delta\mathbf v, \qquad
     \ddot R = \hat{\mathbf s}\cdot\Delta\mathbf a
               + \frac{\lVert\Delta\mathbf v\rVert^2 - (\hat{\mathbf s}\cdot\Delta\mathbf v)^2}{R}
-    \quad(:func:`range_rate`, :func:`range_acceleration`):
 
-the radial acceleration plus the centripetal term of the velocity across the line of sight
+(:func:`range_rate`, :func:`range_acceleration`): the radial acceleration plus the centripetal term of the velocity across the line of sight
 (:math:`v_\perp^2/R`: a target passing a radar at 4.5 m/s and 3 m, 6.8 m/s^2, a Doppler sweep of
 3.5 kHz/s at 77 GHz). A path's :math:`\ddot L` is the sum over its segments. A moving radar's
 elements are points of it (:func:`element_kinematics`); the bistatic Doppler of element pair
@@ -30,9 +29,8 @@ contribution (static clutter included) the *ego-Doppler*
 
 .. math::
     f_{ego,mn} = \frac{\dot{\mathbf t}_m\cdot\hat{\mathbf k}_{m} - \dot{\mathbf r}_n\cdot\hat{\mathbf k}'_{n}}{\lambda}
-    \quad(:func:`ego_doppler`),
 
-:math:`\hat{\mathbf k}_m` the unit vector from Tx element :math:`m` to the path's first
+(:func:`ego_doppler`), :math:`\hat{\mathbf k}_m` the unit vector from Tx element :math:`m` to the path's first
 interaction point, :math:`\hat{\mathbf k}'_n` from its last interaction point to Rx element
 :math:`n`: monostatically :math:`2v\cos\theta/\lambda` (positive, approaching) for a radar moving
 at :math:`v` at an angle :math:`\theta` to the line of sight towards a static reflector.

@@ -284,3 +284,33 @@ def test_blender_exports_a_moving_radar_as_a_track(tmp_path):
         assert pose.orientation[0] == pytest.approx(0.6 * i / 24, abs=1e-5)
         assert np.allclose(pose.velocity, [3.0, 0.0, 0.0], atol=1e-3)
         assert np.allclose(pose.angular_velocity, [0.0, 0.0, 0.6], atol=1e-3)
+
+
+def test_radar_track_accelerations_from_central_differences(tracked_scene):
+    """A track that states velocities but no accelerations gets their central differences."""
+    manifest = _manifest(tracked_scene)
+    for i, frame in enumerate(manifest["frames"]):
+        frame["radar"]["velocity"] = [float(i), 0.0, 0.0]
+    manifest["frames"][2]["radar"]["acceleration"] = [0.0, 5.0, 0.0]   # stated: kept
+    (tracked_scene / "animation.json").write_text(json.dumps(manifest))
+    animation = load_animation(tracked_scene)
+    assert np.allclose(animation.radar_pose_at(1).acceleration, [24.0, 0.0, 0.0])   # (2 - 0) / (2/24 s)
+    assert np.allclose(animation.radar_pose_at(0).acceleration, [24.0, 0.0, 0.0])   # one-sided
+    assert np.allclose(animation.radar_pose_at(2).acceleration, [0.0, 5.0, 0.0])
+
+
+def test_truth_at_cpi_centre_from_a_moving_radar():
+    """A static target, a radar passing it at constant velocity: the range rate at the CPI centre is the
+    closed form from the relative position there."""
+    from sionnafmcw.store import radial_velocity_at_cpi_centre
+
+    times = np.arange(5) / 24.0
+    v = np.array([5.0, 0.0, 0.0])
+    centres = np.array([[0.0, 0.0, 1.0]]) + times[:, None] * v
+    target = np.array([4.0, 1.5, 1.0])
+    duration = 0.0269
+    got = radial_velocity_at_cpi_centre(times, np.tile(target, (5, 1)), np.zeros((5, 3)), centres, duration,
+                                        np.tile(v, (5, 1)))
+    mid = centres + v * duration / 2
+    expected = -np.einsum("fi,i->f", target - mid, v) / np.linalg.norm(target - mid, axis=1)
+    assert np.allclose(got, expected, atol=1e-9)
