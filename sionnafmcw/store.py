@@ -7,21 +7,21 @@ Layout
 ------
 A Zarr v3 group with named dimensions (so ``xarray.open_zarr(path)`` reads it too):
 
-=========================  ==================================  =========  =====================================
-variable                   dimensions                          dtype      meaning (SI units)
-=========================  ==================================  =========  =====================================
-``iq``                     frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
-``frame_time``             frame                               float64    CPI start :math:`t_n` (s)
-``truth_position``         frame, object, xyz                  float64    area-weighted mesh centroid at :math:`t_n` (m, world)
-``truth_velocity``         frame, object, xyz                  float64    the object's (manifest) velocity at :math:`t_n` (m/s, world)
-``truth_radial_velocity``  frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
-``radar_position``         frame, xyz                          float64    radar origin at :math:`t_n` (m, world)
-``radar_orientation``      frame, ypr                          float64    radar (yaw, pitch, roll) at :math:`t_n` (rad)
-``radar_velocity``         frame, xyz                          float64    radar origin's velocity (m/s, world)
-``radar_angular_velocity`` frame, xyz                          float64    radar frame's angular velocity (rad/s, world)
-``frame_done``             frame                               bool       every array of the frame is written
-``object``                 object (coordinate)                 str        names of the moving objects
-=========================  ==================================  =========  =====================================
+============================  ==================================  =========  =====================================
+variable                      dimensions                          dtype      meaning (SI units)
+============================  ==================================  =========  =====================================
+``iq``                        frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
+``frame_time``                frame                               float64    CPI start :math:`t_n` (s)
+``truth_position``            frame, object, xyz                  float64    area-weighted mesh centroid at :math:`t_n` (m, world)
+``truth_velocity``            frame, object, xyz                  float64    the object's (manifest) velocity at :math:`t_n` (m/s, world)
+``truth_radial_velocity``     frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
+``radar_position``            frame, xyz                          float64    radar origin at :math:`t_n` (m, world)
+``radar_orientation``         frame, ypr                          float64    radar (yaw, pitch, roll) at :math:`t_n` (rad)
+``radar_velocity``            frame, xyz                          float64    radar origin's velocity (m/s, world)
+``radar_angular_velocity``    frame, xyz                          float64    radar frame's angular velocity (rad/s, world)
+``frame_done``                frame                               bool       every array of the frame is written
+``object``                    object (coordinate)                 str        names of the moving objects
+============================  ==================================  =========  =====================================
 
 ``tx`` and ``rx`` are in *physical* element order (the rows of ``RadarConfig.tx_positions`` and
 ``rx_positions``), not in firing order. ``xyz`` is the world frame of the scene (z up). Frames not

@@ -94,3 +94,26 @@ def test_po_merge_keeps_doppler_rates_within_its_bound(small_radar):
     whole = beat_direct(echoes, radar)
     cells = beat_direct(Echoes(merged.a, merged.tau, merged.doppler, doppler_rate=merged.doppler_rate), radar)
     assert 0 < np.max(np.abs(whole - cells)) <= merged.bound
+
+
+@pytest.mark.parametrize("engine, options", [("path", {}), ("pixel", {"model": "physical-optics"})])
+def test_accelerating_radar_smears_static_clutter(tmp_path, radar, engine, options):
+    """A static plate 4 m ahead, the radar approaching it at 1 m/s and accelerating towards it at 30 m/s^2
+    (its pose through the API): the plate's radial velocity sweeps [-1 - a T, -1] (the radar's
+    acceleration enters as any other, relative), one bin when frozen."""
+    from sionnafmcw import scenes
+    from sionnafmcw.animation import RadarPose, load_animation
+    from sionnafmcw.engines import create
+
+    animation = load_animation(scenes.build("moving_plate", tmp_path / "plate", start_range=4.0, speed=0.0,
+                                            size=0.3, num_frames=1))
+    a, T, bin_v = 30.0, radar.cpi_duration, radar.velocity_resolution
+    pose = RadarPose([0.0, 0.0, 1.0], [0.0, 0.0, 0.0], velocity=[1.0, 0.0, 0.0], acceleration=[a, 0.0, 0.0])
+    echoes = create(engine, cpi_motion="quadratic", **options).echoes(animation, radar, 0, radar_pose=pose)
+    velocities, power = spectrum_band(synthesize(echoes, radar, rng=3), radar)
+    lo, hi = -1.0 - a * T, -1.0
+    low, high = band_edges(velocities, power, lo, hi, bin_v)
+    assert abs(low - lo) <= bin_v and abs(high - hi) <= bin_v, (low, lo, high, hi)
+    frozen = create(engine, **options).echoes(animation, radar, 0, radar_pose=pose)
+    velocities, power = spectrum_band(synthesize(frozen, radar, rng=3), radar)
+    assert np.all(np.abs(velocities[power >= 0.25 * power.max()] + 1.0) <= bin_v)
