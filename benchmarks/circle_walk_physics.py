@@ -1,4 +1,6 @@
-"""The paper's circle walk before and after issue 11's physics (PO direct echo, random-phase diffuse).
+"""The paper's circle walk under two engine models: issue 11's physics, or issue 24's motion within the CPI.
+
+``--models physics`` (default, issue 11):
 
 ``before``: ``PathEngine(physical_optics=False, random_phase=False)`` (one coherent trace, Sionna's
 geometric-optics mirror paths, diffuse paths with their deterministic phases); ``after``: the
@@ -8,14 +10,23 @@ radar walk-77ghz), same rays (``--samples-per-src``, depth 1 as ``validation/cir
 solver seeds (``--seeds``), same noise seed; for every solver seed the two runs follow each other
 (``before`` first, then ``after``) so that both see the same machine load.
 
+``--models cpi_motion`` (issue 24, item 1): ``frozen`` (``PathEngine(cpi_motion="frozen")``, the defaults:
+every contribution keeps the frame's Doppler over the CPI) against ``quadratic``
+(``cpi_motion="quadratic"``: every contribution's Doppler rate from the accelerations of its
+interaction points, the Doppler sweeping across the CPI).
+
 Per run: the paper's estimator (strongest cell after static clutter removal,
 ``sionnafmcw.validation.circle_walk.analyse``) against the torso's truth: ``e_velo`` and the
-fraction within one Doppler bin; per CPI whether a limb outshines the torso (noise-free,
-clutter-removed range-Doppler map of the limb contributions -- arms, legs, feet -- against that
-of the torso's, peak against peak, from the frame's echoes); the engine's and ``simulate``'s
-seconds per frame; ``doppler_time_<model>_seed<k>.png`` (the paper's Fig. 3) in ``--out``.
+fraction within one Doppler bin, and ``e_velo_cpi_centre`` (against the torso's truth at the CPI centre);
+per CPI whether a limb outshines the torso (noise-free, clutter-removed range-Doppler maps of the
+limb contributions -- arms, legs, feet -- and of the torso's, peak against peak, from the frame's
+echoes; with the noise budget of ``simulate``) and whether the limbs' map is above the torso's in the
+strongest cell of the run's own (noisy, clutter-removed) map, the cell the estimator picks
+(``limb_cell``); the engine's and ``simulate``'s seconds per frame;
+``doppler_time_<model>_seed<k>.png`` (the paper's Fig. 3) in ``--out``.
 
     python benchmarks/circle_walk_physics.py --frames 100 --seeds 1 2 3 --out out/circle_walk_physics
+    python benchmarks/circle_walk_physics.py --models cpi_motion --frames 100 --seeds 1 2 3 --scene DIR
 
 Measured (100 frames, solver seeds 1, 2, 3, ``--samples-per-src 100000`` -- 1e6 rays puts ~1e6
 diffuse room paths x 12 pairs through the synthesizer per frame, beyond this session's two shared
@@ -49,33 +60,43 @@ from sionnafmcw.animation import load_animation
 from sionnafmcw.engines import PathEngine
 from sionnafmcw.engines import options as engine_options
 from sionnafmcw.radar import RadarConfig
-from sionnafmcw.synthesis import synthesize
+from sionnafmcw.synthesis import UPSTREAM_SHARE, noise_error_budget, synthesize
 from sionnafmcw.validation.circle_walk import TRUTH_OBJECT, analyse
 from sionnafmcw.validation.common import build_scene, run_engine
 
 LIMBS = ("upper_arm", "lower_arm", "upper_leg", "lower_leg", "foot")
-MODELS = {"before": {"physical_optics": False, "random_phase": False}, "after": {}}
+MODEL_SETS = {
+    "physics": {"before": {"physical_optics": False, "random_phase": False}, "after": {}},
+    "cpi_motion": {"frozen": {"cpi_motion": "frozen"}, "quadratic": {"cpi_motion": "quadratic"}},
+}
+MODELS = MODEL_SETS["physics"]
 
 
 class _Recording(PathEngine):
-    """PathEngine that also records, per frame, the peak of the torso's and the limbs' own maps."""
+    """PathEngine that also records, per frame, the noise-free clutter-removed maps of the torso's and the
+    limbs' own contributions (synthesised within the noise budget ``simulate`` uses)."""
 
     def __init__(self, radar, **options):
         super().__init__(**options)
         self._radar = radar
-        self.peaks: dict[int, tuple[float, float]] = {}
+        self.maps: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    @property
+    def peaks(self) -> dict:
+        return {f: (float(t.max()), float(m.max())) for f, (t, m) in self.maps.items()}
 
     def _frame_echoes(self, animation, radar, frame, pose):
         echoes, figures = super()._frame_echoes(animation, radar, frame, pose)
         labels = np.asarray(echoes.labels)[0, 0] if echoes.labels is not None else np.zeros(0, str)
-        peaks = []
+        budget = (1 - UPSTREAM_SHARE) * noise_error_budget(radar)
+        maps = []
         for select in (labels == TRUTH_OBJECT, np.array([any(l.endswith(s) for s in LIMBS) for l in labels], bool)):
             if not np.any(select):
-                peaks.append(0.0)
+                maps.append(np.zeros((radar.num_chirps, radar.num_samples), np.float32))
                 continue
-            cube = synthesize(echoes.select(select), radar, noise=False)
-            peaks.append(float(processing.range_doppler_map(cube, radar, clutter_removal=True).power.max()))
-        self.peaks[frame] = (peaks[0], peaks[1])
+            cube = synthesize(echoes.select(select), radar, noise=False, max_error=budget)
+            maps.append(processing.range_doppler_map(cube, radar, clutter_removal=True).power.astype(np.float32))
+        self.maps[frame] = (maps[0], maps[1])
         return echoes, figures
 
 
@@ -88,7 +109,10 @@ def main(argv=None) -> int:
     parser.add_argument("--noise-seed", type=int, default=0)
     parser.add_argument("--scene", default=None, help="existing circle_walk animation (default: build one in --out)")
     parser.add_argument("--out", default="out/circle_walk_physics")
+    parser.add_argument("--models", choices=tuple(MODEL_SETS), default="physics",
+                        help="physics: issue 11's before/after; cpi_motion: issue 24's frozen/quadratic CPI")
     args = parser.parse_args(argv)
+    models = MODEL_SETS[args.models]
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -98,7 +122,7 @@ def main(argv=None) -> int:
     frames = list(range(min(args.frames, animation.num_frames)))
     results = []
     for seed in args.seeds:
-        for model, options in MODELS.items():
+        for model, options in models.items():
             engine = _Recording(radar, samples_per_src=args.samples_per_src, max_depth=args.max_depth, seed=seed,
                                 **options)
             run, seconds = run_engine(animation, radar, engine, out / f"run_{model}_{seed}.zarr", frames=frames,
@@ -106,6 +130,11 @@ def main(argv=None) -> int:
             result = analyse(run, frames=frames)
             peaks = np.array([engine.peaks[f] for f in frames])
             limb_wins = int(np.sum(peaks[:, 1] > peaks[:, 0]))
+            limb_cell = 0   # the limbs' map above the torso's in the estimator's own cell (the run's map)
+            for f in frames:
+                i, k = processing.range_doppler_map(run.cube(f), radar, clutter_removal=True).peak()
+                torso_map, limb_map = engine.maps[f]
+                limb_cell += int(limb_map[i, k] > torso_map[i, k])
             engine_seconds = [s.seconds for s in engine.stats[1:]] or [engine.stats[0].seconds]
             ax = plots.plot_doppler_time(result["times"], result["track"].velocities, truth_times=result["times"],
                                          truth_velocities=result["truth"], spectrogram=result["spectrogram"],
@@ -116,6 +145,7 @@ def main(argv=None) -> int:
                    "e_velo_cpi_centre": result["e_velo_cpi_centre"],
                    "fraction_within_one_bin": result["fraction_within_one_bin"],
                    "median_abs_error": result["median_abs_error"], "limb_outshines_torso_cpis": limb_wins,
+                   "limb_cell_cpis": limb_cell,
                    "num_cpis": len(frames), "engine_s_per_frame_median": float(np.median(engine_seconds)),
                    "simulate_s_per_frame": seconds / len(frames),
                    "traced_paths_median": float(np.median([s.figures.get("num_traced_paths", 0) for s in engine.stats])),
@@ -125,11 +155,13 @@ def main(argv=None) -> int:
             results.append(row)
             print(json.dumps(row), flush=True)
     summary = {}
-    for model in MODELS:
+    for model in models:
         rows = [r for r in results if r["model"] == model]
         summary[model] = {"e_velo_per_seed": [r["e_velo"] for r in rows],
                           "e_velo_mean": float(np.mean([r["e_velo"] for r in rows])),
+                          "e_velo_cpi_centre_per_seed": [r["e_velo_cpi_centre"] for r in rows],
                           "limb_outshines_torso_cpis": [r["limb_outshines_torso_cpis"] for r in rows],
+                          "limb_cell_cpis": [r["limb_cell_cpis"] for r in rows],
                           "engine_s_per_frame": float(np.median([r["engine_s_per_frame_median"] for r in rows])),
                           "simulate_s_per_frame": float(np.median([r["simulate_s_per_frame"] for r in rows]))}
     (out / "summary.json").write_text(json.dumps({"runs": results, "summary": summary,

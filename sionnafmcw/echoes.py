@@ -7,7 +7,16 @@ contribution :math:`p` (a propagation path, or a pixel), at the start of the CPI
   :math:`e^{-j2\pi f_c\tau}`), so that :math:`P_r = P_t |a|^2`;
 * ``tau[m, n, p]``: delay (s);
 * ``doppler[m, n, p]``: Doppler shift (Hz), positive for an approaching reflector, so that the
-  delay evolves as :math:`\tau(t) = \tau_0 - (f_D/f_c)(t - t_n)`.
+  delay evolves as :math:`\tau(t) = \tau_0 - (f_D/f_c)(t - t_n)`;
+* ``doppler_rate[m, n, p]`` (optional, keyword): the Doppler shift's rate of change
+  :math:`\dot f_D` (Hz/s) at the CPI start, for motion within the CPI (issue 24): the delay then
+  follows the second-order model
+
+  .. math:: \tau(t) = \tau_0 - \frac{f_D}{f_c}(t - t_n) - \frac{\dot f_D}{f_c}\frac{(t - t_n)^2}{2},
+
+  i.e. :math:`f_D = -\dot L/\lambda` and :math:`\dot f_D = -\ddot L/\lambda` for a contribution
+  whose path length is :math:`L(t)` (:mod:`sionnafmcw.kinematics`). None (default): every rate
+  zero, the CPI frozen at the frame's velocities (the model before issue 24).
 
 Tx is in physical element order. Zero-gain entries are padding (Sionna pads per-link path
 lists to a common length).
@@ -31,7 +40,13 @@ with :math:`\lambda = c/f_c`, :math:`R^t_{mp} = \|\mathbf p_p - \mathbf t_m\|`,
 for Rx) and :math:`G_t, G_r` the element pattern gains towards the target. The target moves
 radially: :math:`\mathbf v_p = \dot R_p\,\hat{\mathbf u}_p` with :math:`\dot R_p` positive receding.
 Monostatically this gives :math:`P_r = P_t G^2\lambda^2\sigma/((4\pi)^3R^4)` and
-:math:`f_D = -2\dot R/\lambda`.
+:math:`f_D = -2\dot R/\lambda`. With a radial acceleration :math:`\ddot R_p` as well
+(``radial_accelerations``), :math:`\mathbf a_p = \ddot R_p\hat{\mathbf u}_p` and every element's
+range acceleration is :math:`\ddot R^t_{mp} = \hat{\mathbf u}^t_{mp}\cdot\mathbf a_p
++ (|\mathbf v_p|^2 - (\hat{\mathbf u}^t_{mp}\cdot\mathbf v_p)^2)/R^t_{mp}`
+(:func:`sionnafmcw.kinematics.range_acceleration`), so that
+:math:`\dot f_{D,mnp} = -(\ddot R^t_{mp} + \ddot R^r_{np})/\lambda`, monostatically
+:math:`-2\ddot R/\lambda`: over a CPI :math:`T` the Doppler sweeps :math:`2\ddot R T/\lambda`.
 """
 
 from __future__ import annotations
@@ -49,6 +64,14 @@ def _per_contribution(labels: np.ndarray) -> bool:
     return labels.ndim == 3 and labels.shape[0] * labels.shape[1] > 0 and labels.strides[:2] == (0, 0)
 
 
+def _concatenate_rates(parts: list["Echoes"]) -> np.ndarray | None:
+    """Doppler rates of :meth:`Echoes.concatenate`: None when no part has any, else every part's
+    (zeros for a part without)."""
+    if all(p.doppler_rate is None for p in parts):
+        return None
+    return np.concatenate([p.rates() for p in parts], axis=2)
+
+
 def _concatenate_labels(parts: list[np.ndarray]) -> np.ndarray:
     """Labels of :meth:`Echoes.concatenate`: the ``[P]`` vectors joined and broadcast again when every
     part is one, else the full ``[M, N, P]`` arrays joined."""
@@ -61,8 +84,9 @@ def _concatenate_labels(parts: list[np.ndarray]) -> np.ndarray:
 
 #: The per-contribution arrays ``[num_tx, num_rx, num_contributions]`` of :class:`Echoes`.
 CONTRIBUTION_FIELDS = ("a", "tau", "doppler")
-#: What :meth:`Echoes.concatenate` joins on first use: the arrays and the labels.
-JOINED_FIELDS = (*CONTRIBUTION_FIELDS, "labels")
+#: What :meth:`Echoes.concatenate` joins on first use: the arrays, the optional Doppler rates and
+#: the labels.
+JOINED_FIELDS = (*CONTRIBUTION_FIELDS, "doppler_rate", "labels")
 
 
 def target_direction(azimuth, elevation) -> np.ndarray:
@@ -74,12 +98,14 @@ def target_direction(azimuth, elevation) -> np.ndarray:
 
 @dataclass
 class Echoes:
-    """Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start.
+    r"""Per-element contributions ``[num_tx, num_rx, num_contributions]`` at the CPI start.
 
     Parameters
     ----------
     a, tau, doppler : array_like ``[num_tx, num_rx, num_contributions]``
         Complex gain, delay (s) and Doppler shift (Hz), see the module docstring.
+    doppler_rate : array_like ``[num_tx, num_rx, num_contributions]``, keyword, optional
+        :math:`\dot f_D` (Hz/s) at the CPI start (module docstring); None: zero (frozen CPI).
     labels : array_like, optional
         ``[num_contributions]`` (kept as a read-only broadcast view ``[num_tx, num_rx,
         num_contributions]``) or ``[num_tx, num_rx, num_contributions]``.
@@ -97,6 +123,7 @@ class Echoes:
     tau: np.ndarray
     doppler: np.ndarray
     labels: np.ndarray | None = None
+    doppler_rate: np.ndarray | None = field(default=None, kw_only=True)
     static_count: int = field(default=0, kw_only=True)
     static_key: object = field(default=None, kw_only=True)
 
@@ -106,12 +133,19 @@ class Echoes:
         self.doppler = np.asarray(self.doppler, dtype=np.float64)
         if self.a.ndim != 3:
             raise ValueError(f"Echoes.a must have shape [num_tx, num_rx, num_contributions], got {self.a.shape}")
-        for name in ("tau", "doppler"):
+        names = ("a", "tau", "doppler")
+        if self.doppler_rate is not None:
+            rate = np.asarray(self.doppler_rate, dtype=np.float64)
+            if rate.shape == (self.a.shape[2],):
+                rate = np.broadcast_to(rate, self.a.shape)
+            self.doppler_rate = rate
+            names += ("doppler_rate",)
+        for name in names[1:]:
             if getattr(self, name).shape != self.a.shape:
                 raise ValueError(
                     f"Echoes.{name} has shape {getattr(self, name).shape}, expected {self.a.shape} like Echoes.a"
                 )
-        for name in ("a", "tau", "doppler"):
+        for name in names:
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"Echoes.{name} contains non-finite values")
         if np.any(self.tau[self.a != 0] < 0):
@@ -154,12 +188,25 @@ class Echoes:
             value = None
             if all(p.labels is not None for p in parts):
                 value = _concatenate_labels([p.labels for p in parts])
+        elif name == "doppler_rate":
+            value = _concatenate_rates(parts)
         else:
             value = np.concatenate([getattr(p, name) for p in parts], axis=2)
         setattr(self, name, value)
         if all(f in self.__dict__ for f in JOINED_FIELDS):
             del self._parts   # everything is joined: the parts are no longer needed
         return value
+
+    @property
+    def accelerating(self) -> bool:
+        """True when some contribution has a non-zero :attr:`doppler_rate` (motion within the CPI)."""
+        return self.doppler_rate is not None and bool(np.any(self.doppler_rate))
+
+    def rates(self) -> np.ndarray:
+        """:attr:`doppler_rate`, or zeros ``[num_tx, num_rx, num_contributions]`` (a read-only view) when None."""
+        if self.doppler_rate is not None:
+            return self.doppler_rate
+        return np.broadcast_to(np.zeros(1), self.shape)
 
     @property
     def shape(self) -> tuple[int, int, int]:
@@ -200,12 +247,14 @@ class Echoes:
             out = object.__new__(Echoes)
             for name in CONTRIBUTION_FIELDS:
                 setattr(out, name, np.concatenate([getattr(p, name) for p in pieces], axis=2))
+            out.doppler_rate = _concatenate_rates(pieces)
             out.labels, out.static_count, out.static_key = None, 0, None
             return out
         cut = slice(start, stop)
         out = object.__new__(Echoes)
         for name in CONTRIBUTION_FIELDS:
             setattr(out, name, getattr(self, name)[..., cut])
+        out.doppler_rate = None if self.doppler_rate is None else self.doppler_rate[..., cut]
         out.labels, out.static_count, out.static_key = None, 0, None
         return out
 
@@ -245,7 +294,19 @@ class Echoes:
         if self.labels is not None:
             labels = np.asarray(self.labels)
             labels = labels[0, 0, mask] if _per_contribution(labels) else labels[..., mask]
-        return Echoes(self.a[..., mask], self.tau[..., mask], self.doppler[..., mask], labels)
+        rate = None if self.doppler_rate is None else self.doppler_rate[..., mask]
+        return Echoes(self.a[..., mask], self.tau[..., mask], self.doppler[..., mask], labels, doppler_rate=rate)
+
+    def frozen(self) -> "Echoes":
+        """The same contributions without Doppler rates (the CPI frozen at the frame's velocities); the
+        static block and labels are kept."""
+        if self.doppler_rate is None:
+            return self
+        import copy
+
+        out = copy.copy(self)
+        out.doppler_rate = None
+        return out
 
     def received_power(self, tx_power: float) -> np.ndarray:
         """:math:`P_t |a|^2` per element pair and contribution (W)."""
@@ -270,8 +331,8 @@ class Echoes:
 
     @classmethod
     def point_targets(cls, radar, ranges, radial_velocities, azimuths, elevations=0.0, rcs=1.0,
-                      labels=None) -> "Echoes":
-        """Ideal point targets in the radar frame (see the module docstring for the model).
+                      labels=None, radial_accelerations=None) -> "Echoes":
+        r"""Ideal point targets in the radar frame (see the module docstring for the model).
 
         Parameters
         ----------
@@ -280,9 +341,14 @@ class Echoes:
         radial_velocities : array_like, m/s, range rate (positive receding)
         azimuths, elevations : array_like, rad (azimuth positive towards +y)
         rcs : array_like, m^2
+        radial_accelerations : array_like, optional
+            :math:`\ddot R` (m/s^2, along the line of sight): the echoes get Doppler rates (module
+            docstring); None: no Doppler rates (a frozen CPI).
         """
-        ranges, velocities, az, el, rcs = np.broadcast_arrays(
-            *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (ranges, radial_velocities, azimuths, elevations, rcs))
+        accel = 0.0 if radial_accelerations is None else radial_accelerations
+        ranges, velocities, az, el, rcs, accel = np.broadcast_arrays(
+            *(np.atleast_1d(np.asarray(x, dtype=float)) for x in (ranges, radial_velocities, azimuths, elevations, rcs,
+                                                                   accel))
         )
         if np.any(ranges <= 0):
             raise ValueError("point_targets: ranges must be > 0 m")
@@ -307,9 +373,22 @@ class Echoes:
         )
         tau = (r_t[:, None, :] + r_r[None, :, :]) / SPEED_OF_LIGHT
         doppler = -(rate_t[:, None, :] + rate_r[None, :, :]) / wavelength
-        return cls(amplitude.astype(complex), tau, doppler, labels)
+        doppler_rate = None
+        if radial_accelerations is not None:
+            from .kinematics import range_acceleration
+
+            acceleration = accel[:, None] * u
+            zero = np.zeros(3)
+            acc_t = range_acceleration(radar.tx_positions[:, None, :], zero, zero, position[None], velocity[None],
+                                       acceleration[None])   # [M, P]
+            acc_r = range_acceleration(radar.rx_positions[:, None, :], zero, zero, position[None], velocity[None],
+                                       acceleration[None])   # [N, P]
+            doppler_rate = -(acc_t[:, None, :] + acc_r[None, :, :]) / wavelength
+        return cls(amplitude.astype(complex), tau, doppler, labels, doppler_rate=doppler_rate)
 
 
-# A joined Echoes (Echoes.concatenate) reads its labels through __getattr__, joined on first use: no
-# class attribute may stand in for them (the dataclass default None stays the __init__ default).
+# A joined Echoes (Echoes.concatenate) reads its labels and Doppler rates through __getattr__, joined
+# on first use: no class attribute may stand in for them (the dataclass defaults None stay the
+# __init__ defaults).
 del Echoes.labels
+del Echoes.doppler_rate

@@ -359,15 +359,18 @@ def plot_scene_top_view(animation, radar=None, radar_pose=None, frames=None, obj
     * the radar: its position, boresight (the pose's local +x projected on the floor, arrow) and
       the azimuth field of view ``fov`` (rad, full width) as a wedge, out to the unambiguous
       range :math:`R_{max}` of ``radar`` when given (dashed edge; the axes show the scene, so a
-      long wedge is cut at the border), else to the far side of the scene (dotted edge).
+      long wedge is cut at the border), else to the far side of the scene (dotted edge); a moving
+      radar (a radar track) at its pose in the first of ``frames``, with its track over ``frames``.
 
     Parameters
     ----------
     animation : :class:`~sionnafmcw.animation.Animation` or path of an animation directory
     radar : :class:`~sionnafmcw.RadarConfig`, optional
         Gives the field of view its range :math:`R_{max}`.
-    radar_pose : RadarPose, dict ``{"position", "orientation"}`` or ``(position, orientation)``, optional
-        Default: the animation's radar pose. No radar is drawn when there is none.
+    radar_pose : RadarPose, dict ``{"position", "orientation"}``, ``(position, orientation)`` or a radar track
+        (a list of one RadarPose per animation frame), optional
+        Default: the animation's radar pose (its radar track when it has one). No radar is drawn
+        when there is none.
     frames : sequence of int, optional
         Frames whose object centroids make the tracks (default all); the static meshes and the
         object outlines are taken from the first of them.
@@ -424,9 +427,17 @@ def plot_scene_top_view(animation, radar=None, radar_pose=None, frames=None, obj
         extent += [track[:, :2], outline]
         movers.append((name, track, outline))
 
+    track = radar_pose if radar_pose is not None else animation.radar_track
+    if isinstance(track, (list, tuple)) and track and hasattr(track[0], "position"):
+        radar_track = np.array([track[f].position for f in frames])
+        radar_pose = track[f0]
+    else:
+        radar_track = None
     pose = _pose_arrays(radar_pose if radar_pose is not None else animation.radar_pose)
     if pose is not None:
         extent.append(pose[0][None, :2])
+    if radar_track is not None:
+        extent.append(radar_track[:, :2])
     points = np.concatenate(extent) if extent else np.zeros((1, 2))
     lo, hi = points.min(axis=0), points.max(axis=0)
     margin = 0.08 * max(float(np.max(hi - lo)), 1.0)
@@ -497,6 +508,12 @@ def plot_scene_top_view(animation, radar=None, radar_pose=None, frames=None, obj
                             label=f"radar at ({position[0]:.2f}, {position[1]:.2f}, {position[2]:.2f}) m, "
                                   f"yaw {np.rad2deg(orientation[0]):.0f}° (arrow: boresight)")
         handles += [marker, wedge]
+        if radar_track is not None and np.ptp(radar_track[:, :2], axis=0).max() > 0:
+            (moving,) = ax.plot(radar_track[:, 0], radar_track[:, 1], "-", color="black", linewidth=1.0, zorder=5,
+                                label=f"radar track, frames {frames[0]}..{frames[-1]}")
+            ax.annotate("", xy=radar_track[-1, :2], xytext=radar_track[-2, :2] if len(radar_track) > 1 else
+                        radar_track[-1, :2], zorder=5, arrowprops=dict(arrowstyle="-|>", color="black", lw=1.0))
+            handles.append(moving)
 
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])

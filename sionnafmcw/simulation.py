@@ -5,12 +5,13 @@ For every frame :math:`n` (CPI start :math:`t_n` = the frame time): the engine g
 IF cube with noise from a generator seeded by ``(seed, n)`` (so a resumed run, or a run of a
 frame subset, gives the same cube for the same frame; the noise-free cube of the engine's static
 echo block, the same every frame, is synthesised once per block and reused: ``static_cache``),
-and the store receives the cube and the ground truth of every moving object: position
-(area-weighted centroid of its mesh), velocity (the manifest's) and radial velocity
-:math:`\\dot R` from the radar's phase centre (the centroid of the virtual array, positive
-receding), and for a scene with people (the manifest's ``people`` entry) every person's keypoints
-and activity (:mod:`sionnafmcw.store`). The synthesis and the store write of frame :math:`n` run on one
-worker thread while
+and the store receives the cube, the radar's pose of the frame and the ground truth of every
+moving object: position (area-weighted centroid of its mesh), velocity (the manifest's) and radial
+velocity :math:`\\dot R` from the radar's phase centre (the centroid of the virtual array, positive
+receding; relative to the phase centre's own motion when the radar moves,
+:func:`relative_radial_velocity`), and for a scene with people (the manifest's ``people`` entry)
+every person's keypoints and activity (:mod:`sionnafmcw.store`). The synthesis and the store write
+of frame :math:`n` run on one worker thread while
 the engine computes frame :math:`n + 1`; frames are written in order, each once its cube is
 complete (a signal stops the main thread; the write under way finishes first). Memory is
 bounded by one frame's echoes and one frame's synthesis, and checked against the memory
@@ -110,16 +111,17 @@ def _check_arguments(seed, noise, leakage_db) -> None:
                                   "no leakage)")
 
 
-def _check_ranges(animation, radar, pose, indices, names) -> dict:
+def _check_ranges(animation, radar, poses, indices, names) -> dict:
     r"""Truth positions ``{frame: [object, 3]}`` of the selected frames, after checking that every moving
     object lies inside the radar's unambiguous range :math:`R_{max} = cF_s/(2\mu)` from the phase centre
-    (beyond it the beat frequency exceeds the sample rate and the echo aliases to a wrong range)."""
+    of the frame's radar pose ``poses[frame]`` (beyond it the beat frequency exceeds the sample rate and
+    the echo aliases to a wrong range)."""
     positions = {}
     if not names:
         return positions
-    centre = world_phase_centre(radar, pose.position, pose.orientation)
     worst = (0.0, None, None)
     for f in indices:
+        centre = world_phase_centre(radar, poses[f].position, poses[f].orientation)
         by_name = animation.object_positions(f, names)
         positions[f] = np.array([by_name[n] for n in names])
         ranges = np.linalg.norm(positions[f] - centre, axis=-1)
@@ -193,6 +195,45 @@ def _check_memory(radar, engine_obj) -> None:
             f"but {have / gib:.2f} GiB of memory is available; lower the radar's num_samples or num_chirps")
 
 
+def radar_poses(animation, radar_pose=None) -> list:
+    """The radar's :class:`~sionnafmcw.animation.RadarPose` in every frame of ``animation``: ``radar_pose`` (one
+    pose for every frame, or a radar track, :func:`sionnafmcw.engines.base.resolve_pose`), else the
+    animation's (its radar track, else its pose). Raises :class:`SimulationError` naming what is missing
+    or wrong."""
+    from .engines.base import resolve_pose
+    from .engines.errors import EngineError
+
+    if radar_pose is None and animation.radar_pose is None and animation.radar_track is None:
+        raise SimulationError(f"simulate: {animation.path} has no radar pose in animation.json; pass radar_pose=")
+    try:
+        return [resolve_pose(animation, radar_pose, f) for f in range(animation.num_frames)]
+    except EngineError as err:
+        raise SimulationError(f"simulate: {err}") from None
+
+
+def track_attribute(poses) -> dict | None:
+    """The store's ``radar_track`` attribute: None for a radar that keeps one pose (and motion) in every
+    frame, else ``{"frames", "sha256"}``: the digest of every frame's pose and motion (a resume with
+    another track is refused; the poses themselves are the store's per-frame arrays)."""
+    import hashlib
+
+    first = poses[0].to_dict()
+    if all(p.to_dict() == first for p in poses):
+        return None
+    digest = hashlib.sha256()
+    for p in poses:
+        for name in ("position", "orientation", "velocity", "angular_velocity", "acceleration", "angular_acceleration"):
+            digest.update(np.asarray(getattr(p, name), dtype="<f8").tobytes())
+    return {"frames": len(poses), "sha256": digest.hexdigest()}
+
+
+def relative_radial_velocity(positions, velocities, centre, centre_velocity) -> np.ndarray:
+    r"""Range rate from a moving phase centre, :math:`\dot R = (\mathbf p - \mathbf c)\cdot(\mathbf v - \dot{\mathbf c})
+    / \lVert\mathbf p - \mathbf c\rVert` (m/s, positive receding): what the radar measures of a target
+    whatever the radar's own motion (:func:`sionnafmcw.geometry.radial_velocity` for a radar at rest)."""
+    return radial_velocity(positions, np.asarray(velocities, float) - np.asarray(centre_velocity, float), centre)
+
+
 def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progress=True,
              radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None,
              leakage_db: float | None = None, repair: bool = False, wait: float = 0.0):
@@ -206,7 +247,8 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
         :class:`~sionnafmcw.engines.Engine` instance
     out : path of the Zarr store; an existing store with the same settings is resumed
     frames : iterable of frame indices or a slice (default: all); the store always spans all frames
-    radar_pose : RadarPose overriding the animation's
+    radar_pose : RadarPose (every frame), or a radar track (a list of one RadarPose per animation frame, with
+        its velocities), overriding the animation's pose or track
     seed : noise seed (integer >= 0); frame ``n`` uses ``numpy.random.default_rng([seed, n])``
     noise : add receiver thermal noise
     engine_options : keyword options of the engine when ``engine`` is a name (:func:`sionnafmcw.engines.options`)
@@ -238,16 +280,15 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         animation = load_animation(animation)
     radar = RadarConfig.resolve(radar)
     radar.validate(frame_period=animation.frame_period)
-    pose = radar_pose if radar_pose is not None else animation.radar_pose
-    if pose is None:
-        raise SimulationError(f"simulate: {animation.path} has no radar pose in animation.json; pass radar_pose=")
+    poses = radar_poses(animation, radar_pose)
+    pose = poses[0]
     indices = _frame_indices(frames, animation.num_frames)
     engine_obj = _engine(engine, engine_options)
     settings = engine_obj.settings()
     _check_memory(radar, engine_obj)
     animation.check_frequency(radar.fc)
     names = animation.object_names
-    positions_at = _check_ranges(animation, radar, pose, indices, names)
+    positions_at = _check_ranges(animation, radar, poses, indices, names)
     people = animation.people
     people_arrays = None if people is None else {
         "names": people.names, "joints": people.keypoint_names, "object_person": people.object_person(names)}
@@ -260,7 +301,8 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         with deferred():  # a signal during creation: the store is finished (or removed), then the interrupt
             store = RunStore.open(
                 out, radar, animation.num_frames, names,
-                attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "engine": settings,
+                attrs={"radar": radar.to_dict(), "radar_pose": pose.to_dict(), "radar_track": track_attribute(poses),
+                       "engine": settings,
                        "scene": str(Path(animation.path).resolve()), "seed": int(seed), "noise": bool(noise),
                        "leakage_db": leakage_db,
                        **({"people": {n: people.info[n] for n in people.names}} if people is not None else {}),
@@ -270,7 +312,6 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         with deferred():
             done = store.done()
         todo = [f for f in indices if not done[f]]
-        centre = world_phase_centre(radar, pose.position, pose.orientation)
         if progress and todo:
             from tqdm.auto import tqdm
 
@@ -284,15 +325,19 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
 
         def write(f, cube):
             if names:
+                from .kinematics import element_kinematics
+
                 positions = positions_at[f]
                 velocities = np.array([animation.object_velocity(f, n) for n in names])
-                radial = radial_velocity(positions, velocities, centre)
+                centre = element_kinematics(poses[f], radar.phase_centre[None])
+                radial = relative_radial_velocity(positions, velocities, centre.position[0], centre.velocity[0])
             else:
                 positions = velocities = radial = None
             joints = activities = None
             if people is not None:
                 joints, activities = people.keypoints[f], people.activities[f]
-            store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial, joints, activities)
+            store.write_frame(f, cube, animation.frames[f].time, positions, velocities, radial, joints, activities,
+                              radar_pose=poses[f])
             if bar is not None:
                 bar.update(1)
 
@@ -308,7 +353,7 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             pending = None
             try:
                 for f in todo:
-                    echoes = engine_obj.echoes(animation, radar, f, radar_pose=pose)
+                    echoes = engine_obj.echoes(animation, radar, f, radar_pose=poses[f])
                     if pending is not None:
                         done, pending = pending, None
                         done.result()

@@ -7,17 +7,21 @@ Layout
 ------
 A Zarr v3 group with named dimensions (so ``xarray.open_zarr(path)`` reads it too):
 
-=========================  ==================================  =========  =====================================
-variable                   dimensions                          dtype      meaning (SI units)
-=========================  ==================================  =========  =====================================
-``iq``                     frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
-``frame_time``             frame                               float64    CPI start :math:`t_n` (s)
-``truth_position``         frame, object, xyz                  float64    area-weighted mesh centroid at :math:`t_n` (m, world)
-``truth_velocity``         frame, object, xyz                  float64    the object's (manifest) velocity at :math:`t_n` (m/s, world)
-``truth_radial_velocity``  frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
-``frame_done``             frame                               bool       every array of the frame is written
-``object``                 object (coordinate)                 str        names of the moving objects
-=========================  ==================================  =========  =====================================
+============================  ==================================  =========  =====================================
+variable                      dimensions                          dtype      meaning (SI units)
+============================  ==================================  =========  =====================================
+``iq``                        frame, chirp, tx, rx, sample        complex64  beat (IF) samples; :math:`|x|^2` in W
+``frame_time``                frame                               float64    CPI start :math:`t_n` (s)
+``truth_position``            frame, object, xyz                  float64    area-weighted mesh centroid at :math:`t_n` (m, world)
+``truth_velocity``            frame, object, xyz                  float64    the object's (manifest) velocity at :math:`t_n` (m/s, world)
+``truth_radial_velocity``     frame, object                       float64    :math:`\dot R` at :math:`t_n` (m/s, + receding)
+``radar_position``            frame, xyz                          float64    radar origin at :math:`t_n` (m, world)
+``radar_orientation``         frame, ypr                          float64    radar (yaw, pitch, roll) at :math:`t_n` (rad)
+``radar_velocity``            frame, xyz                          float64    radar origin's velocity (m/s, world)
+``radar_angular_velocity``    frame, xyz                          float64    radar frame's angular velocity (rad/s, world)
+``frame_done``                frame                               bool       every array of the frame is written
+``object``                    object (coordinate)                 str        names of the moving objects
+============================  ==================================  =========  =====================================
 
 Scenes with people (the animation's ``people`` entry, :mod:`sionnafmcw.animation.people`) add the
 per-person truth and labels:
@@ -51,7 +55,12 @@ Attributes
     (its own field names, SI units, element positions in the radar frame).
 ``radar_pose``
     ``{"position": [x, y, z], "orientation": [yaw, pitch, roll]}`` (m, rad): the radar frame in the
-    world (:mod:`sionnafmcw.geometry`).
+    world (:mod:`sionnafmcw.geometry`) in frame 0, with its ``velocity`` (m/s) and
+    ``angular_velocity`` (rad/s) where non-zero. The pose of every frame is in the ``radar_*`` arrays
+    (issue 24; stores written before have only this attribute, and :meth:`Run.pose_at` falls back to it).
+``radar_track``
+    None for a radar that keeps one pose in every frame, else ``{"frames", "sha256"}``, the digest of
+    every frame's pose and motion (a moving radar; a resume with another track is refused).
 ``engine``
     The engine's settings, ``{"engine": name, option: value, ...}``.
 ``scene``
@@ -83,8 +92,10 @@ rate :math:`v_r = \dot R`, positive when receding (:mod:`sionnafmcw.synthesis`,
 *Phase centre.* Ranges and radial velocities are measured from the phase centre of the virtual
 array, :math:`\mathbf c_w` = :func:`sionnafmcw.geometry.world_phase_centre` (radar frame:
 :func:`sionnafmcw.array.phase_centre`), not from the radar origin: that is where a range peak
-sits. ``truth_radial_velocity`` is :math:`(\mathbf p - \mathbf c_w)\cdot\mathbf v / \lVert\mathbf p - \mathbf c_w\rVert`
-at :math:`t_n`; :meth:`Run.truth_at_cpi_centre` moves it to the CPI centre.
+sits. ``truth_radial_velocity`` is :math:`(\mathbf p - \mathbf c_w)\cdot(\mathbf v - \dot{\mathbf c}_w) / \lVert\mathbf p - \mathbf c_w\rVert`
+at :math:`t_n`, :math:`\dot{\mathbf c}_w` the phase centre's velocity (zero for a radar at rest): the
+range rate the radar sees; :meth:`Run.truth_at_cpi_centre` moves it to the CPI centre. With a
+moving radar the phase centre is that of the frame's pose (:meth:`Run.phase_centre_at`).
 
 Resumable and never half-written: ``iq`` has one chunk per frame, and ``frame_done[f]`` is set
 only after every array of frame ``f`` is written. Re-opening a store with the same settings
@@ -126,9 +137,12 @@ def _json_safe(value):
 #: Attributes every complete store has (besides ``format``); a directory without them was cut off
 #: while being created by a version that did not create stores atomically.
 REQUIRED_ATTRS = ("radar", "radar_pose", "engine", "seed", "noise")
+#: The radar's pose per frame (issue 24): array name -> the :class:`~sionnafmcw.animation.RadarPose` field.
+POSE_ARRAYS = {"radar_position": "position", "radar_orientation": "orientation", "radar_velocity": "velocity",
+               "radar_angular_velocity": "angular_velocity"}
 #: The arrays of a frame, in the order :meth:`RunStore.write_frame` writes them (``frame_done`` last).
-FRAME_ARRAYS = ("iq", "frame_time", "truth_position", "truth_velocity", "truth_radial_velocity", "joint_position",
-                "person_activity", "person_count")
+FRAME_ARRAYS = ("iq", "frame_time", "truth_position", "truth_velocity", "truth_radial_velocity", *POSE_ARRAYS,
+                "joint_position", "person_activity", "person_count")
 #: Per-person arrays (present only in runs of scenes with people).
 PEOPLE_ARRAYS = ("joint_position", "person_activity", "person_count", "object_person", "person", "joint")
 
@@ -197,6 +211,9 @@ def _create(path: Path, radar, num_frames: int, object_names: list[str], attrs: 
                                   ("truth_radial_velocity", (), ["frame", "object"])):
             group.create_array(name, shape=(num_frames, n_obj, *extra), chunks=(1, max(n_obj, 1), *extra),
                                dtype="float64", fill_value=np.nan, dimension_names=dims)
+        for name in POSE_ARRAYS:
+            group.create_array(name, shape=(num_frames, 3), chunks=(1, 3), dtype="float64", fill_value=np.nan,
+                               dimension_names=["frame", "ypr" if name == "radar_orientation" else "xyz"])
         objects = group.create_array("object", shape=(n_obj,), dtype=str, dimension_names=["object"])
         if n_obj:
             objects[:] = np.array(object_names, dtype=str)
@@ -334,10 +351,12 @@ class RunStore:
         return np.asarray(self.group["frame_done"][:], dtype=bool)
 
     def write_frame(self, index: int, iq: np.ndarray, time: float, positions, velocities,
-                    radial_velocities, joint_positions=None, activities=None) -> None:
+                    radial_velocities, joint_positions=None, activities=None, radar_pose=None) -> None:
         """Write every array of frame ``index``, then mark it done (last). ``joint_positions`` [person,
         joint, 3] and ``activities`` [person] for a store with the per-person arrays (the person count is
-        their number).
+        their number). ``radar_pose``: the frame's :class:`~sionnafmcw.animation.RadarPose` (the
+        ``radar_*`` arrays; a store created before issue 24 has none and keeps its one ``radar_pose``
+        attribute).
 
         Signals are held during the writes (:func:`sionnafmcw.interrupts.deferred`): Ctrl-C never
         cuts a chunk write in half; a SIGKILL leaves at most a ``*.partial`` file (swept by the next
@@ -358,6 +377,10 @@ class RunStore:
                 g["joint_position"][index] = np.asarray(joint_positions, float)
                 g["person_activity"][index] = np.asarray(activities, dtype=str)
                 g["person_count"][index] = np.int32(len(activities))
+            if radar_pose is not None:
+                for name, field in POSE_ARRAYS.items():
+                    if name in g:
+                        g[name][index] = np.asarray(getattr(radar_pose, field), float)
             _faults.point("chunk-written", store=self.path, frame=index)
             g["frame_done"][index] = True
             _faults.point("frame-done", store=self.path, frame=index)
@@ -394,7 +417,8 @@ def check_run(path, repair: bool = True) -> dict:
     corrupt = {}
     for f in done:
         for name in FRAME_ARRAYS:
-            if name not in group:   # per-person arrays of a run without people (or an older store)
+            if name not in group:   # per-person arrays of a run without people, or a store written before
+                # its array existed (the radar_* arrays)
                 continue
             if name != "iq" and group[name].ndim > 1 and group[name].shape[1] == 0:
                 continue
@@ -423,7 +447,8 @@ def check_run(path, repair: bool = True) -> dict:
 
 
 # ===================================================================================== truth maths
-def radial_velocity_at_cpi_centre(times, positions, velocities, centre, cpi_duration: float) -> np.ndarray:
+def radial_velocity_at_cpi_centre(times, positions, velocities, centre, cpi_duration: float,
+                                  centre_velocities=None) -> np.ndarray:
     r"""Range rate of one object at every CPI centre, from the truth sampled at the CPI starts.
 
     A CPI of frame :math:`n` spans :math:`[t_n, t_n + LMT_c]`; the slow-time phase of a target whose
@@ -443,14 +468,23 @@ def radial_velocity_at_cpi_centre(times, positions, velocities, centre, cpi_dura
     walk (4.52 m/s on a 3 m circle, :math:`\Delta` = 13.4 ms), while using :math:`\dot R(t_n)` instead
     would be wrong by up to :math:`(v^2/r)\Delta \approx 0.09` m/s.
 
+    A moving radar: ``centre`` ``[frame, 3]`` and ``centre_velocities`` ``[frame, 3]`` (the phase
+    centre's, per frame) make every position and velocity relative to it first (the same formulas on
+    :math:`\mathbf p - \mathbf c_n`, :math:`\mathbf v - \dot{\mathbf c}_n`, so its acceleration enters too).
+
     Parameters
     ----------
     times : ``[frame]`` s; positions, velocities : ``[frame, 3]`` m, m/s (world);
-    centre : ``[3]`` m (world); cpi_duration : :math:`LMT_c` (s).
+    centre : ``[3]`` or ``[frame, 3]`` m (world); cpi_duration : :math:`LMT_c` (s);
+    centre_velocities : ``[frame, 3]`` m/s or None (a radar at rest).
     """
     t = np.asarray(times, float)
     p = np.asarray(positions, float)
     v = np.asarray(velocities, float)
+    if centre_velocities is not None:
+        p = p - np.asarray(centre, float)
+        v = v - np.asarray(centre_velocities, float)
+        centre = np.zeros(3)
     a = np.gradient(v, t, axis=0) if t.size > 1 else np.zeros_like(v)
     dt = cpi_duration / 2.0
     pc = p + v * dt + 0.5 * a * dt**2
@@ -507,23 +541,75 @@ class Run:
 
     @cached_property
     def pose(self):
-        """The radar's :class:`~sionnafmcw.animation.RadarPose` in the world."""
+        """The radar's :class:`~sionnafmcw.animation.RadarPose` in the world (frame 0's; :meth:`pose_at` per frame)."""
         from .animation import RadarPose
 
         pose = self._attr("radar_pose")
         try:
+            motion = {k: np.asarray(pose[k], float).reshape(3) for k in ("velocity", "angular_velocity")
+                      if k in pose}
             return RadarPose(np.asarray(pose["position"], float).reshape(3),
-                             np.asarray(pose["orientation"], float).reshape(3))
+                             np.asarray(pose["orientation"], float).reshape(3), **motion)
         except (KeyError, TypeError, ValueError) as exc:
             raise RunStoreError(f"{self.path}: attribute 'radar_pose' must be {{'position': [x, y, z], "
                                 f"'orientation': [yaw, pitch, roll]}}, got {pose!r}") from exc
 
     @cached_property
     def phase_centre(self) -> np.ndarray:
-        """World position of the virtual array's phase centre ``[3]`` (m): ranges are measured from it."""
+        """World position of the virtual array's phase centre ``[3]`` (m) in frame 0 (every frame for a radar
+        at rest): ranges are measured from it. A moving radar's: :meth:`phase_centre_at`."""
         from .geometry import world_phase_centre
 
         return world_phase_centre(self.radar, self.pose.position, self.pose.orientation)
+
+    @property
+    def radar_moves(self) -> bool:
+        """True when the run's radar moved (its ``radar_track`` attribute, or a velocity in its pose)."""
+        return self.attrs.get("radar_track") is not None or self.pose.moving
+
+    def pose_at(self, frame: int):
+        """The radar's :class:`~sionnafmcw.animation.RadarPose` (position, orientation, velocity, angular
+        velocity) in ``frame``: the per-frame ``radar_*`` arrays, or the ``radar_pose`` attribute for a
+        store that has none (written before issue 24) or a frame not written yet."""
+        from .animation import RadarPose
+
+        frame = int(frame)
+        if "radar_position" not in self._group or not self.done_mask[frame]:
+            return self.pose
+        fields = {field: np.asarray(self._read(name, frame), float) for name, field in POSE_ARRAYS.items()
+                  if name in self._group}
+        if not all(np.all(np.isfinite(v)) for v in fields.values()):
+            return self.pose
+        return RadarPose(**fields)
+
+    def poses(self) -> list:
+        """:meth:`pose_at` of every frame ``[frame]``."""
+        if "radar_position" not in self._group:
+            return [self.pose] * self.num_frames
+        arrays = {field: np.asarray(self._read_all(name), float) for name, field in POSE_ARRAYS.items()
+                  if name in self._group}
+        from .animation import RadarPose
+
+        out = []
+        for f in range(self.num_frames):
+            values = {k: v[f] for k, v in arrays.items()}
+            ok = self.done_mask[f] and all(np.all(np.isfinite(v)) for v in values.values())
+            out.append(RadarPose(**values) if ok else self.pose)
+        return out
+
+    def phase_centre_at(self, frame: int) -> np.ndarray:
+        """World position ``[3]`` (m) of the phase centre in ``frame`` (the frame's radar pose)."""
+        from .geometry import world_phase_centre
+
+        pose = self.pose_at(frame)
+        return world_phase_centre(self.radar, pose.position, pose.orientation)
+
+    def phase_centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """Positions and velocities ``[frame, 3]`` (m, m/s, world) of the phase centre in every frame."""
+        from .kinematics import element_kinematics
+
+        kin = [element_kinematics(p, self.radar.phase_centre[None]) for p in self.poses()]
+        return np.array([k.position[0] for k in kin]), np.array([k.velocity[0] for k in kin])
 
     @property
     def engine(self) -> dict:
@@ -629,25 +715,35 @@ class Run:
         return np.where(self.done_mask[:, None], np.asarray(self._read_all("truth_velocity")[:, k, :], float), np.nan)
 
     def object_range(self, obj: str) -> np.ndarray:
-        r"""Range of ``obj`` from the phase centre at the CPI starts, :math:`\lVert\mathbf p_n - \mathbf c_w\rVert` ``[frame]`` (m)."""
+        r"""Range of ``obj`` from the phase centre at the CPI starts, :math:`\lVert\mathbf p_n - \mathbf c_w\rVert` ``[frame]``
+        (m; the frame's phase centre when the radar moves)."""
+        if self.radar_moves:
+            return np.linalg.norm(self.object_position(obj) - self.phase_centres()[0], axis=-1)
         return np.linalg.norm(self.object_position(obj) - self.phase_centre, axis=-1)
 
     def truth_at_cpi_centre(self, obj: str) -> np.ndarray:
         """Radial velocity of ``obj`` at every CPI centre ``[frame]`` (m/s): :func:`radial_velocity_at_cpi_centre`
-        on the done frames (the acceleration from differences between them); NaN for frames not done."""
+        on the done frames (the acceleration from differences between them; relative to the moving
+        phase centre when the radar moves); NaN for frames not done."""
         done = self.done_frames
         out = np.full(self.num_frames, np.nan)
         if done.size:
-            out[done] = radial_velocity_at_cpi_centre(
-                self.frame_times[done], self.object_position(obj)[done], self.object_velocity(obj)[done],
-                self.phase_centre, self.radar.cpi_duration)
+            if self.radar_moves:
+                centres, centre_velocities = self.phase_centres()
+                out[done] = radial_velocity_at_cpi_centre(
+                    self.frame_times[done], self.object_position(obj)[done], self.object_velocity(obj)[done],
+                    centres[done], self.radar.cpi_duration, centre_velocities[done])
+            else:
+                out[done] = radial_velocity_at_cpi_centre(
+                    self.frame_times[done], self.object_position(obj)[done], self.object_velocity(obj)[done],
+                    self.phase_centre, self.radar.cpi_duration)
         return out
 
     def truth_in_radar_frame(self, frame: int) -> tuple[np.ndarray, np.ndarray]:
         r"""Range (m) and azimuth (rad) of every object ``[object]`` in frame ``frame``, as the radar sees them.
 
-        The object's position at the CPI start goes to the radar frame
-        (:func:`sionnafmcw.geometry.world_to_radar`) and is taken relative to the phase centre
+        The object's position at the CPI start goes to the radar frame of the frame's pose
+        (:func:`sionnafmcw.geometry.world_to_radar`, :meth:`pose_at`) and is taken relative to the phase centre
         :math:`\mathbf c_r` (:func:`sionnafmcw.array.phase_centre`):
         :math:`\mathbf q = \mathbf R^T(\mathbf p - \mathbf o) - \mathbf c_r`, range :math:`\lVert\mathbf q\rVert`,
         azimuth :math:`\operatorname{atan2}(q_y, q_x)` (positive towards the radar's +y).
@@ -660,7 +756,8 @@ class Run:
         if not self.objects:
             return np.zeros(0), np.zeros(0)
         positions = np.asarray(self._read("truth_position", frame), float)
-        local = world_to_radar(positions, self.pose.position, self.pose.orientation) - self.radar.phase_centre
+        pose = self.pose_at(frame)
+        local = world_to_radar(positions, pose.position, pose.orientation) - self.radar.phase_centre
         return np.linalg.norm(local, axis=-1), np.arctan2(local[:, 1], local[:, 0])
 
     # ------------------------------------------------------------------ people

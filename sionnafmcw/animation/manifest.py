@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import AnimationError, read_text
-from .model import Animation, Frame, RadarPose
+from .model import RADAR_MOTION_FIELDS, Animation, Frame, RadarPose
 from .ply import read_ply_cached
 
 #: The manifest's ``format`` field.
@@ -67,17 +67,12 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
 
     radar_pose = None
     if "radar" in manifest:
-        radar = manifest["radar"]
-        if not isinstance(radar, dict):
-            raise AnimationError(f"{where}: field 'radar' must be an object with position and orientation")
-        position = _vector(radar.get("position"), 3, f"{where}: field 'radar.position'")
-        orientation = _vector(radar.get("orientation", [0.0, 0.0, 0.0]), 3, f"{where}: field 'radar.orientation'")
-        radar_pose = RadarPose(position, orientation)
+        radar_pose = _radar_pose(manifest["radar"], where, "radar", per_frame=False)
 
     frames_raw = manifest.get("frames")
     if not isinstance(frames_raw, list) or not frames_raw:
         raise AnimationError(f"{where}: field 'frames' must be a non-empty list")
-    frames = []
+    frames, track = [], []
     for i, fr in enumerate(frames_raw):
         fw = f"{where}: frames[{i}]"
         if not isinstance(fr, dict):
@@ -100,6 +95,8 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
         xml_path = (root / xml).resolve()
         if not xml_path.is_file():
             raise AnimationError(f"{fw}.xml: frame XML {xml!r} not found (looked for {xml_path})")
+        if "radar" in fr:
+            track.append(_radar_pose(fr["radar"], where, f"frames[{i}].radar", per_frame=True))
         objects_raw = fr.get("objects", {})
         if not isinstance(objects_raw, dict):
             raise AnimationError(f"{fw}.objects must be an object {{name: {{velocity: [vx, vy, vz]}}}}")
@@ -119,7 +116,16 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
                 transforms[name] = _vector(spec["to_world"], 16, f"{ow}.to_world").reshape(4, 4)
         frames.append(Frame(idx, float(t), xml_path, objects, spins, transforms))
 
-    anim = Animation(root, fps, frames, radar_pose, manifest)
+    radar_track = None
+    if track:
+        if len(track) != len(frames):
+            missing = next(i for i, fr in enumerate(frames_raw) if "radar" not in fr)
+            raise AnimationError(f"{where}: frames[{missing}] has no field 'radar' but {len(track)} other frames do: "
+                                 "a radar track gives the radar's pose in every frame (or in none)")
+        radar_track = complete_track(track, [f.time for f in frames], given=[set(fr["radar"]) for fr in frames_raw])
+        if radar_pose is None:
+            radar_pose = radar_track[0].at_rest()
+    anim = Animation(root, fps, frames, radar_pose, manifest, radar_track)
     people = anim.people      # the optional 'people' entry, checked (sionnafmcw.animation.people)
     if people is not None:       # a person's objects are shapes of the scene (moving, or still in every frame)
         known = set(anim.object_names) | set(anim.frame_xml(0).shapes)
@@ -159,15 +165,65 @@ def load_animation(path, check_meshes: bool = True) -> Animation:
     return anim
 
 
+#: Fields of a manifest's radar pose (top level or per frame): position, orientation and the motion.
+RADAR_FIELDS = ("position", "orientation", *RADAR_MOTION_FIELDS)
+
+
+def _radar_pose(value, where: str, name: str, per_frame: bool) -> RadarPose:
+    """A :class:`RadarPose` from a manifest's ``radar`` object; the error names the field. Per frame,
+    ``position``, ``orientation`` and ``velocity`` are required (the track's motion); at the top level
+    only ``position`` (a radar at rest unless it gives its motion)."""
+    if not isinstance(value, dict):
+        raise AnimationError(f"{where}: field '{name}' must be an object with position and orientation")
+    unknown = sorted(set(value) - set(RADAR_FIELDS))
+    if unknown and per_frame:   # (the top-level pose ignored unknown fields before issue 24, and still does)
+        raise AnimationError(f"{where}: field '{name}' has unknown field(s) {', '.join(unknown)}; known: "
+                             f"{', '.join(RADAR_FIELDS)}")
+    required = ("position", "orientation", "velocity") if per_frame else ("position",)
+    for key in required:
+        if key not in value:
+            raise AnimationError(f"{where}: field '{name}.{key}' is missing" + (
+                " (a radar track states the radar's velocity in every frame, m/s, world)" if key == "velocity" else ""))
+    fields = {"position": _vector(value["position"], 3, f"{where}: field '{name}.position'"),
+              "orientation": _vector(value.get("orientation", [0.0, 0.0, 0.0]), 3,
+                                     f"{where}: field '{name}.orientation'")}
+    for key in RADAR_MOTION_FIELDS:
+        if key in value:
+            fields[key] = _vector(value[key], 3, f"{where}: field '{name}.{key}'")
+    return RadarPose(**fields)
+
+
+def complete_track(poses: list, times, given=None) -> list:
+    r"""The radar track ``poses`` (one :class:`RadarPose` per frame, at ``times`` (s)) with the
+    accelerations filled in where ``given`` (per frame, the set of fields the manifest states; None:
+    none) lacks them: the central differences of the velocities and angular velocities,
+    :math:`\mathbf a_n = (\mathbf v_{n+1} - \mathbf v_{n-1})/(t_{n+1} - t_{n-1})` (one-sided at the
+    ends, zero for a single frame), as :meth:`~sionnafmcw.animation.Animation.object_acceleration`
+    does for the objects."""
+    from dataclasses import replace
+
+    t = np.asarray(times, float)
+    given = [set() for _ in poses] if given is None else given
+    out = []
+    for name, source in (("acceleration", "velocity"), ("angular_acceleration", "angular_velocity")):
+        values = np.array([getattr(p, source) for p in poses])
+        derived = np.gradient(values, t, axis=0) if len(poses) > 1 else np.zeros_like(values)
+        out.append(derived)
+    return [replace(p, **{name: d[i] for name, d in zip(("acceleration", "angular_acceleration"), out)
+                          if name not in given[i]}) for i, p in enumerate(poses)]
+
+
 def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict | None = None) -> Path:
     """Write ``animation.json`` for frames already on disk; returns its path.
 
     ``frames``: list of dicts ``{"xml": relative path, "objects": {name: velocity [3]}}`` (index
     and time ``index / fps`` are filled in); an object's entry may also be a dict ``{"velocity",
     "angular_velocity", "to_world"}`` (a rigid object: :mod:`.rigid`; ``to_world`` a 4x4 that must
-    equal the frame XML's). ``radar_pose``: a :class:`RadarPose`, a dict
-    ``{"position", "orientation"}`` or ``(position, orientation)``. ``extra``: further top-level
-    fields (e.g. ``"source"``, ``"scenario"``; the loader ignores fields it does not know).
+    equal the frame XML's); a frame's ``"radar"`` (a :class:`RadarPose` or its dict) is the radar's
+    pose and motion in that frame (a radar track: every frame or none). ``radar_pose``: a
+    :class:`RadarPose`, a dict ``{"position", "orientation"}`` or ``(position, orientation)``: the
+    default pose (with a track, write its frame 0). ``extra``: further top-level fields (e.g.
+    ``"source"``, ``"scenario"``; the loader ignores fields it does not know).
     """
     path = Path(path)
     path.mkdir(parents=True, exist_ok=True)
@@ -181,15 +237,26 @@ def write_animation(path, frames: list, fps: float, radar_pose=None, extra: dict
         else:
             manifest["radar"] = {"position": [float(x) for x in radar_pose[0]],
                                  "orientation": [float(x) for x in radar_pose[1]]}
-    manifest["frames"] = [
-        {"index": i, "time": i / float(fps), "xml": f["xml"],
-         "objects": {n: _object_entry(v) for n, v in f.get("objects", {}).items()}}
-        for i, f in enumerate(frames)
-    ]
+    manifest["frames"] = []
+    for i, f in enumerate(frames):
+        entry = {"index": i, "time": i / float(fps), "xml": f["xml"],
+                 "objects": {n: _object_entry(v) for n, v in f.get("objects", {}).items()}}
+        if f.get("radar") is not None:
+            entry["radar"] = _radar_entry(f["radar"])
+        manifest["frames"].append(entry)
     manifest.update(extra or {})
     out = path / "animation.json"
     out.write_text(json.dumps(manifest, indent=1))
     return out
+
+
+def _radar_entry(value) -> dict:
+    """A frame's ``radar`` entry: position, orientation and velocity always, the other motion fields where
+    non-zero."""
+    pose = value if isinstance(value, RadarPose) else RadarPose(**{k: np.asarray(v, float) for k, v in value.items()})
+    entry = pose.to_dict()
+    entry.setdefault("velocity", [0.0, 0.0, 0.0])
+    return entry
 
 
 def _object_entry(value) -> dict:
@@ -204,4 +271,5 @@ def _object_entry(value) -> dict:
     return entry
 
 
-__all__ = ["FORMAT", "TIME_TOLERANCE", "TRANSFORM_TOLERANCE", "load_animation", "write_animation"]
+__all__ = ["FORMAT", "RADAR_FIELDS", "TIME_TOLERANCE", "TRANSFORM_TOLERANCE", "complete_track", "load_animation",
+           "write_animation"]

@@ -27,15 +27,59 @@ from .rigid import RigidMotion, area_centroid, proper_rotation
 FRAME_XML_CACHE_SIZE = 1024
 
 
+#: The motion fields of a :class:`RadarPose` (world frame: m/s, rad/s, m/s^2, rad/s^2), zero by default.
+RADAR_MOTION_FIELDS = ("velocity", "angular_velocity", "acceleration", "angular_acceleration")
+
+
+def _zeros3():
+    return np.zeros(3)
+
+
 @dataclass(frozen=True)
 class RadarPose:
-    """Radar position (m, world) and orientation ``[yaw, pitch, roll]`` (rad, Sionna's convention)."""
+    r"""Radar position (m, world) and orientation ``[yaw, pitch, roll]`` (rad, Sionna's convention) at a
+    frame's CPI start, and the radar frame's motion there (issue 24): ``velocity`` (m/s) of the radar
+    origin, ``angular_velocity`` :math:`\boldsymbol\omega` (rad/s, world,
+    :math:`\dot{\mathbf R} = [\boldsymbol\omega]_\times\mathbf R`), ``acceleration`` (m/s^2) and
+    ``angular_acceleration`` (rad/s^2); all zero by default (a radar at rest). An element at
+    radar-frame position :math:`\mathbf e` moves at :math:`\mathbf v + \boldsymbol\omega\times\mathbf R\mathbf e`
+    (:func:`sionnafmcw.kinematics.element_kinematics`)."""
 
     position: np.ndarray
     orientation: np.ndarray
+    velocity: np.ndarray = field(default_factory=_zeros3)
+    angular_velocity: np.ndarray = field(default_factory=_zeros3)
+    acceleration: np.ndarray = field(default_factory=_zeros3)
+    angular_acceleration: np.ndarray = field(default_factory=_zeros3)
+
+    def __post_init__(self):
+        for name in ("position", "orientation", *RADAR_MOTION_FIELDS):
+            value = np.asarray(getattr(self, name), dtype=float)
+            if value.shape != (3,) or not np.all(np.isfinite(value)):
+                raise AnimationError(f"RadarPose.{name} must be 3 finite numbers, got {getattr(self, name)!r}")
+            object.__setattr__(self, name, value)
+
+    @property
+    def moving(self) -> bool:
+        """True when the radar frame moves or turns at this instant (a velocity or angular velocity)."""
+        return bool(np.any(self.velocity != 0) or np.any(self.angular_velocity != 0))
+
+    def at_rest(self) -> RadarPose:
+        """The same pose without motion."""
+        return RadarPose(self.position, self.orientation)
+
+    def same_place(self, other: RadarPose) -> bool:
+        """True when ``other`` has the same position and orientation."""
+        return bool(np.array_equal(self.position, other.position) and np.array_equal(self.orientation, other.orientation))
 
     def to_dict(self) -> dict:
-        return {"position": [float(x) for x in self.position], "orientation": [float(x) for x in self.orientation]}
+        """``{"position", "orientation"}`` and, where non-zero, the motion fields (plain floats)."""
+        out = {"position": [float(x) for x in self.position], "orientation": [float(x) for x in self.orientation]}
+        for name in RADAR_MOTION_FIELDS:
+            value = getattr(self, name)
+            if np.any(value != 0):
+                out[name] = [float(x) for x in value]
+        return out
 
 
 @dataclass(frozen=True)
@@ -84,11 +128,13 @@ class Mesh:
 class Animation:
     """A checked animation directory; build it with :func:`~sionnafmcw.animation.load_animation`."""
 
-    def __init__(self, path: Path, fps: float, frames: list, radar_pose: RadarPose | None, manifest: dict):
+    def __init__(self, path: Path, fps: float, frames: list, radar_pose: RadarPose | None, manifest: dict,
+                 radar_track: list | None = None):
         self.path = Path(path)
         self.fps = float(fps)
         self.frames = frames
         self.radar_pose = radar_pose
+        self.radar_track = radar_track
         self.manifest = manifest
         self._frame_xml_cache: dict = {}
         self._local_centroids: dict = {}   # PLY path -> area-weighted centroid of the PLY's own vertices
@@ -131,6 +177,22 @@ class Animation:
 
     def __len__(self) -> int:
         return self.num_frames
+
+    # ------------------------------------------------------------------ the radar
+    def radar_pose_at(self, frame_index: int) -> RadarPose | None:
+        """The radar's pose and motion in a frame: the manifest's radar track (``frames[i].radar``) when it
+        has one, else the default ``radar`` pose (None when the manifest has neither)."""
+        if self.radar_track is not None:
+            return self.radar_track[self.frame(frame_index).index]
+        return self.radar_pose
+
+    @property
+    def radar_moves(self) -> bool:
+        """True when the manifest's radar track moves (a pose that changes, or a non-zero velocity)."""
+        track = self.radar_track
+        if track is None:
+            return self.radar_pose is not None and self.radar_pose.moving
+        return any(p.moving or not p.same_place(track[0]) for p in track)
 
     def __repr__(self) -> str:
         return f"Animation({str(self.path)!r}, {self.num_frames} frames at {self.fps:g} fps, objects={self.object_names})"
@@ -229,6 +291,67 @@ class Animation:
     def angular_velocity(self, frame_index: int, name: str) -> np.ndarray:
         """Manifest angular velocity (rad/s, world) of ``name`` in a frame (zeros when not given)."""
         return np.asarray(self.frame(frame_index).angular_velocities.get(name, np.zeros(3)), dtype=float)
+
+    # ------------------------------------------------------------------ accelerations (issue 24)
+    def _neighbours(self, frame_index: int) -> tuple[int, int]:
+        """The frames of the central difference at ``frame_index`` (one-sided at the ends; the frame
+        itself twice for a single-frame animation)."""
+        self.frame(frame_index)
+        return max(frame_index - 1, 0), min(frame_index + 1, self.num_frames - 1)
+
+    def _difference(self, frame_index: int, value) -> np.ndarray:
+        r""":math:`(x_{n+1} - x_{n-1})/(t_{n+1} - t_{n-1})` of ``value(frame)`` (zero for one frame)."""
+        before, after = self._neighbours(frame_index)
+        if before == after:
+            return np.zeros_like(np.asarray(value(frame_index), float))
+        dt = self.frames[after].time - self.frames[before].time
+        return (np.asarray(value(after), float) - np.asarray(value(before), float)) / dt
+
+    def object_acceleration(self, frame_index: int, name: str) -> np.ndarray:
+        r"""Acceleration (m/s^2, world) of ``name``'s centroid in a frame: the central difference of the
+        manifest velocities, :math:`(\mathbf v_{n+1} - \mathbf v_{n-1})/(t_{n+1} - t_{n-1})` (one-sided
+        at the first and last frame, zero for a single frame): second-order accurate at :math:`t_n`, so
+        that the CPI of frame :math:`n` starts from its position, velocity and acceleration
+        (:mod:`sionnafmcw.echoes`)."""
+        return self._difference(frame_index, lambda f: self.object_velocity(f, name))
+
+    def angular_acceleration(self, frame_index: int, name: str) -> np.ndarray:
+        r"""Angular acceleration :math:`\boldsymbol\alpha` (rad/s^2, world) of ``name`` in a frame: the central
+        difference of the manifest angular velocities, as :meth:`object_acceleration`."""
+        return self._difference(frame_index, lambda f: self.angular_velocity(f, name))
+
+    def vertex_accelerations(self, frame_index: int, name: str) -> np.ndarray | None:
+        r"""Per-vertex accelerations ``[V, 3]`` (m/s^2, world) of ``name`` in a frame, or None where its points
+        all share :meth:`object_acceleration` (an object that translates).
+
+        * a mesh with per-vertex velocities (the PLY's ``vx, vy, vz``, a deforming mesh): the central
+          difference of the vertex velocities of the neighbouring frames (a vertex is a material point);
+        * a rigid object that turns (an angular velocity or an angular acceleration in the frame):
+          :math:`\mathbf a_c + \boldsymbol\alpha\times\mathbf r + \boldsymbol\omega\times(\boldsymbol\omega\times\mathbf r)`,
+          :math:`\mathbf r = \mathbf x - \mathbf c` (:func:`sionnafmcw.kinematics.rigid_point_kinematics`), exact
+          for the rigid motion given its centroid's and its rotation's accelerations.
+        """
+        from ..kinematics import rigid_point_kinematics
+
+        info = self._ply_shape(frame_index, name)
+        if read_ply_cached(info.filename).vertex_velocities is not None:
+            def velocities(f):
+                v = self.mesh(f, name).vertex_velocities
+                if v is None or v.shape != read_ply_cached(info.filename).vertex_velocities.shape:
+                    raise AnimationError(f"{self.frame(f).xml}: mesh {name!r} has no per-vertex velocities of the "
+                                         f"shape of frame {frame_index}'s; the vertex accelerations need them in "
+                                         "the neighbouring frames")
+                return v
+            return self._difference(frame_index, velocities)
+        omega = self.angular_velocity(frame_index, name)
+        alpha = self.angular_acceleration(frame_index, name)
+        if not (np.any(omega != 0) or np.any(alpha != 0)):
+            return None
+        mesh = self.mesh(frame_index, name)
+        motion = self.motion(frame_index, name)
+        centre = motion.centroid if motion is not None else mesh.centroid
+        return rigid_point_kinematics(mesh.vertices, centre, self.object_velocity(frame_index, name), omega,
+                                      self.object_acceleration(frame_index, name), alpha).acceleration
 
     def materials(self) -> dict:
         """``{material id: MaterialSpec}`` over all frames."""

@@ -141,8 +141,11 @@ within :math:`\pm h`, e.g. LINEAR keyframes away from a kink.
 Radar pose
 ----------
 The radar is the object named ``radar`` (``--radar NAME``), else the scene camera; its pose at
-the first exported frame is the manifest's ``radar`` (a warning is printed if it moves: the
-manifest holds one pose). ``position`` is the object's world origin. ``orientation`` =
+the first exported frame is the manifest's ``radar``. When it moves during the exported frames
+(any change of its world matrix beyond :data:`RADAR_MOTION_TOLERANCE`), every frame also gets its
+pose and motion, a radar track (``frames[i].radar``, issue 24): position, orientation, the velocity
+of its origin and the angular velocity of its axes from the same central differences at
+:math:`\pm h` frames as the objects' (:func:`radar_motion`). ``position`` is the object's world origin. ``orientation`` =
 (yaw, pitch, roll) (rad) with Sionna's :math:`\mathbf R = \mathbf R_z(\mathrm{yaw})\,
 \mathbf R_y(\mathrm{pitch})\,\mathbf R_x(\mathrm{roll})`, whose columns are the radar's local
 axes in the world: boresight :math:`\hat{\mathbf x}_r`, azimuth (left) :math:`\hat{\mathbf y}_r`,
@@ -291,6 +294,23 @@ def orientation_from_rotation(rotation) -> tuple[float, float, float]:
         yaw = math.atan2(-r[0, 1], r[1, 1])
         roll = 0.0
     return yaw, pitch, roll
+
+
+def radar_motion(matrix_now, matrix_before, matrix_after, span: float, is_camera: bool) -> dict:
+    r"""A frame's radar track entry: :func:`radar_pose_from_matrix` of ``matrix_now`` plus ``velocity``
+    :math:`(\mathbf p_+ - \mathbf p_-)/\Delta t` and ``angular_velocity``
+    :math:`\log(\mathbf R_+\mathbf R_-^T)^\vee/\Delta t` (:func:`~sionnafmcw.animation.rigid.angular_velocity`,
+    of the radar axes) from the world matrices ``span`` seconds apart (zero when ``span`` is 0)."""
+    entry = radar_pose_from_matrix(matrix_now, is_camera)
+    if span > 0:
+        before, after = np.asarray(matrix_before, float), np.asarray(matrix_after, float)
+        entry["velocity"] = [float(x) for x in (after[:3, 3] - before[:3, 3]) / span]
+        omega = angular_velocity(radar_axes(after, is_camera), radar_axes(before, is_camera), span)
+        entry["angular_velocity"] = [float(x) for x in omega]
+    else:
+        entry["velocity"] = [0.0, 0.0, 0.0]
+        entry["angular_velocity"] = [0.0, 0.0, 0.0]
+    return entry
 
 
 def radar_pose_from_matrix(matrix_world, is_camera: bool) -> dict:
@@ -752,6 +772,7 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
     rigid: dict = {}                  # name -> _Rigid while every frame so far is a rigid motion of the first
     radar_matrix0 = None
     radar_moves = False
+    radar_track = []                  # per frame: the radar's manifest entry with its motion
 
     def safe_name(name):
         if name not in safe_names:
@@ -811,6 +832,10 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
                 radar_matrix0 = sc.radar_matrix
             elif np.max(np.abs(sc.radar_matrix - radar_matrix0)) > RADAR_MOTION_TOLERANCE:
                 radar_moves = True
+            for other in (sp, sn):
+                if np.max(np.abs(other.radar_matrix - sc.radar_matrix)) > RADAR_MOTION_TOLERANCE:
+                    radar_moves = True
+            radar_track.append(radar_motion(sc.radar_matrix, sp.radar_matrix, sn.radar_matrix, span, is_camera))
         shapes, objects = {}, {}
         for name in sorted(sc.parts):
             part = sc.parts[name]
@@ -889,9 +914,11 @@ def _export(scene, tmp, a, b, h, fps, radar_obj, is_camera, radar_desc, log) -> 
         write_frame_xml(tmp / "frames" / f"{i:04d}.xml", shapes, mats)
         manifest_frames.append({"xml": f"frames/{i:04d}.xml",
                                 "objects": {n: v for n, v in fr["objects"].items() if n in moving}})
+        if radar_moves and len(radar_track) == len(frames):
+            manifest_frames[-1]["radar"] = radar_track[i]
     if radar_moves:
-        log(f"sionnafmcw-export: warning: the radar ({radar_desc}) moves during the exported frames; the manifest "
-            f"holds one radar pose, the one of frame {a}")
+        log(f"sionnafmcw-export: the radar ({radar_desc}) moves during the exported frames: the manifest holds "
+            "its pose and motion per frame (a radar track)")
     radar_pose = radar_pose_from_matrix(radar_matrix0 if radar_matrix0 is not None else np.eye(4), is_camera)
     write_animation(tmp, manifest_frames, fps, radar_pose, extra={
         "source": {

@@ -169,7 +169,8 @@ def scene_top_view(fig: Figures) -> Path:
         raise UserError(f"scene {scene} (recorded in {fig.run.path}) is not there any more; pass --scene DIR")
     animation = load_scene(scene, "--scene")
     frames = [int(f) for f in fig.done if f < animation.num_frames]
-    ax = plots.plot_scene_top_view(animation, radar=fig.radar, radar_pose=fig.run.pose, frames=frames or None,
+    pose = fig.run.poses() if fig.run.radar_moves and fig.run.num_frames == animation.num_frames else fig.run.pose
+    ax = plots.plot_scene_top_view(animation, radar=fig.radar, radar_pose=pose, frames=frames or None,
                                    highlight=[n for n in fig.shown if n in animation.object_names] or None,
                                    title=f"Scene {Path(scene).name}, top view")
     return plots.save(ax, fig.out / "scene_top_view.png")

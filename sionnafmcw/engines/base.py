@@ -72,17 +72,37 @@ class FrameStats:
                                  f"{', '.join(self.figures) or 'none'})") from None
 
 
-def resolve_pose(animation: Animation, radar_pose) -> RadarPose:
-    """``radar_pose`` (a :class:`RadarPose` or a ``(position, orientation)`` pair), else ``animation.radar_pose``.
+def resolve_pose(animation: Animation, radar_pose, frame: int | None = None) -> RadarPose:
+    """The radar pose of ``frame``: from ``radar_pose`` (a :class:`RadarPose`, a ``(position, orientation)``
+    pair, or a radar track: a sequence of one :class:`RadarPose` per animation frame), else the
+    animation's (:meth:`~sionnafmcw.animation.Animation.radar_pose_at`; its default pose when
+    ``frame`` is None).
 
-    Raises :class:`EngineError` naming the animation when neither is given.
+    Raises :class:`EngineError` naming the animation when neither is given, and naming ``radar_pose``
+    when it is not one of these.
     """
-    pose = radar_pose if radar_pose is not None else animation.radar_pose
-    if pose is None:
-        raise EngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
-    if not isinstance(pose, RadarPose):
-        pose = RadarPose(np.asarray(pose[0], dtype=float), np.asarray(pose[1], dtype=float))
-    return pose
+    if radar_pose is None:
+        pose = animation.radar_pose if frame is None else animation.radar_pose_at(frame)
+        if pose is None:
+            raise EngineError(f"{animation.path}: animation.json has no 'radar' pose; pass radar_pose=")
+        return pose
+    if isinstance(radar_pose, RadarPose):
+        return radar_pose
+    if isinstance(radar_pose, (list, tuple)) and radar_pose and isinstance(radar_pose[0], RadarPose):
+        if len(radar_pose) != animation.num_frames:
+            raise EngineError(f"radar_pose: a radar track has one RadarPose per frame of the animation "
+                              f"({animation.num_frames}), got {len(radar_pose)}")
+        bad = [i for i, p in enumerate(radar_pose) if not isinstance(p, RadarPose)]
+        if bad:
+            raise EngineError(f"radar_pose[{bad[0]}]: a radar track holds RadarPose objects, got "
+                              f"{type(radar_pose[bad[0]]).__name__}")
+        return radar_pose[0 if frame is None else frame]
+    try:
+        position, orientation = radar_pose
+        return RadarPose(np.asarray(position, dtype=float), np.asarray(orientation, dtype=float))
+    except (TypeError, ValueError) as err:
+        raise EngineError(f"radar_pose must be a RadarPose, a (position, orientation) pair or a list of one "
+                          f"RadarPose per frame, got {radar_pose!r} ({err})") from None
 
 
 class Engine(abc.ABC):
@@ -139,9 +159,10 @@ class Engine(abc.ABC):
     def echoes(self, animation: Animation, radar, frame: int, radar_pose: RadarPose | None = None):
         """Echoes ``[num_tx, num_rx, P]`` of ``frame`` (Tx in physical element order).
 
-        ``radar_pose`` overrides ``animation.radar_pose`` (a :class:`RadarPose` or a
-        ``(position, orientation)`` pair). The scene is loaded on the first call and again when
-        the animation or the radar changes; a :class:`FrameStats` is appended to :attr:`stats`.
+        ``radar_pose`` overrides the animation's pose of the frame (a :class:`RadarPose`, a
+        ``(position, orientation)`` pair or a radar track, :func:`resolve_pose`). The scene is loaded
+        on the first call and again when the animation or the radar changes; a :class:`FrameStats`
+        is appended to :attr:`stats`.
         """
         # the scene state imports Dr.Jit / Mitsuba / Sionna (sionnafmcw.sionna_rt): loaded when an
         # engine first runs, so that the registry and the error classes stay light to import
@@ -149,7 +170,7 @@ class Engine(abc.ABC):
         from .loaded_scene import LoadedScene, load_radar_scene
 
         t0 = time.perf_counter()
-        pose = resolve_pose(animation, radar_pose)
+        pose = resolve_pose(animation, radar_pose, frame)
         radar.validate(frame_period=animation.frame_period)
         self._check_radar(radar)
         key = (id(animation), str(animation.path), radar.to_json())

@@ -146,6 +146,10 @@ from ..echoes import Echoes
 from ..geometry import rotation_matrix
 from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, dr, mi, sionna_antenna_pattern
 from .base import Engine
+from .cpi_motion import (
+    broadcast_rates, check_cpi_motion, frame_motion, interaction_accelerations, path_ends, render_range_accelerations,
+    traced_range_accelerations, with_ego_doppler,
+)
 from .element_pairs import (
     coherent_echoes, diffuse_phases, interaction_velocities, path_labels, per_element_echoes, vertex_doppler,
 )
@@ -213,6 +217,20 @@ class _StaticBlock:
     seconds: float
 
 
+def _per_element_rates(paths: TracedPaths, rates, shape) -> np.ndarray:
+    """``"per-element"``: the Doppler rates ``[P]`` of traced paths placed as :func:`per_element_echoes` places
+    their gains (each path is one element pair's contribution), ``[M, N, K]``."""
+    link = paths.source * shape[1] + paths.target
+    order = np.argsort(link, kind="stable")
+    counts = np.bincount(link, minlength=shape[0] * shape[1])
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    rank = np.empty(paths.num_paths, dtype=np.int64)
+    rank[order] = np.arange(paths.num_paths) - starts[link[order]]
+    out = np.zeros(shape)
+    out[paths.source, paths.target, rank] = rates
+    return out
+
+
 def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
 
@@ -266,7 +284,14 @@ class PathEngine(Engine):
     static_scene : bool
         Trace and render the objects that do not move once per radar pose, and per frame only what
         the moving objects change (:mod:`~sionnafmcw.engines.static_scene`): the same echoes up to
-        the PO merge error, and a static echo block whose beat cube the synthesizer reuses.
+        the PO merge error, and a static echo block whose beat cube the synthesizer reuses. Used only
+        in frames where the radar is at rest (a moving radar sees no static clutter: every frame is
+        traced and rendered whole).
+    cpi_motion : str
+        ``"frozen"`` (default): every contribution keeps the frame's Doppler over the CPI;
+        ``"quadratic"``: each also gets its Doppler rate from the accelerations of its interaction
+        points and of the radar (motion within the CPI, :mod:`~sionnafmcw.engines.cpi_motion`).
+        The radar's own velocity (a moving radar) enters the Doppler either way.
 
     Notes
     -----
@@ -298,7 +323,8 @@ class PathEngine(Engine):
                  seed: int = 1, vertex_doppler: bool = True, label: str = "first", track_kernels: bool = True,
                  deterministic: bool = True, array_model: str = "coherent", deduplicate: bool = True,
                  physical_optics: bool = True, multibounce: str = "po", random_phase: bool = True,
-                 po_samples_across: int = 16, po_merge: bool = True, static_scene: bool = True):
+                 po_samples_across: int = 16, po_merge: bool = True, static_scene: bool = True,
+                 cpi_motion: str = "frozen"):
         if label not in self.LABELS:
             raise PathEngineError(f"PathEngine: label={label!r} is unknown; choose one of {', '.join(self.LABELS)}")
         if array_model not in self.ARRAY_MODELS:
@@ -307,6 +333,7 @@ class PathEngine(Engine):
         if multibounce not in self.MULTIBOUNCE:
             raise PathEngineError(f"PathEngine: multibounce={multibounce!r} is unknown; choose one of "
                                   f"{', '.join(self.MULTIBOUNCE)}")
+        check_cpi_motion(cpi_motion, PathEngineError, "PathEngine")
         if physical_optics and array_model != "coherent":
             raise PathEngineError("PathEngine: physical_optics=True needs array_model='coherent' (one set of "
                                   "scatterers for the whole array); pass physical_optics=False for 'per-element'")
@@ -338,6 +365,8 @@ class PathEngine(Engine):
         self.po_samples_across = int(po_samples_across)
         self.po_merge = bool(po_merge)
         self.static_scene = bool(static_scene)
+        self.cpi_motion = cpi_motion
+        self._motion = None
         self._solver = PathSolver(deterministic=self.deterministic)
         self.last_paths: TracedPaths | None = None
         self.last_renders: list = []
@@ -351,7 +380,7 @@ class PathEngine(Engine):
                 "label": self.label, "array_model": self.array_model, "deduplicate": self.deduplicate,
                 "physical_optics": self.physical_optics, "multibounce": self.multibounce,
                 "random_phase": self.random_phase, "po_samples_across": self.po_samples_across,
-                "po_merge": self.po_merge, "static_scene": self.static_scene}
+                "po_merge": self.po_merge, "static_scene": self.static_scene, "cpi_motion": self.cpi_motion}
 
     @property
     def coherent(self) -> bool:
@@ -407,12 +436,14 @@ class PathEngine(Engine):
         loaded = self._loaded
         rigid = {name: np.asarray(animation.frame(frame).objects.get(name, np.zeros(3)), float)
                  for name in loaded.scene.objects}
+        self._motion = motion = frame_motion(animation, frame, pose, radar, list(loaded.scene.objects),
+                                             self.cpi_motion == "quadratic", self.vertex_doppler)
         static, spheres, moving_ids = None, None, frozenset()
         figures = {}
         world = self._state.surfaces
         if world is not None:
-            world.place(animation, frame, loaded, rigid)
-        if self.static_scene:
+            world.place(animation, frame, loaded, rigid, motion)
+        if self.static_scene and motion.radar_at_rest:
             from .static_scene import Spheres
 
             moving = frozenset(world.names[k] for k in world.moving())
@@ -498,18 +529,41 @@ class PathEngine(Engine):
 
     def _traced_echoes(self, paths: TracedPaths, velocities: dict, radar, pose: RadarPose,
                        wavelength: float) -> Echoes | None:
-        """Per element pair echoes of traced paths (None when there are none); ``paths`` is not changed."""
+        """Per element pair echoes of traced paths (None when there are none); ``paths`` is not changed.
+        The radar's motion adds its ego-Doppler, ``cpi_motion="quadratic"`` the Doppler rates
+        (:mod:`~sionnafmcw.engines.cpi_motion`)."""
         if not paths.num_paths:
             return None
-        loaded, names_by_id = self._loaded, self._state.names_by_id
+        loaded, names_by_id, motion = self._loaded, self._state.names_by_id, self._motion
         vertex_velocity, velocity = interaction_velocities(paths, loaded, velocities, self.vertex_doppler)
         doppler = paths.doppler + vertex_doppler(paths, vertex_velocity, wavelength)
         labels = path_labels(paths, loaded, names_by_id, velocities, self.label, self.vertex_doppler)
+        rates = None
+        if motion.quadratic:
+            acceleration = interaction_accelerations(paths, loaded, motion)
+            if self.coherent:
+                ends = (motion.tx_centre, motion.rx_centre)
+            else:
+                ends = (motion.tx[paths.source], motion.rx[paths.target])
+            rates = -traced_range_accelerations(paths, velocity, acceleration, names_by_id, motion, *ends) / wavelength
         if self.random_phase:
             paths = replace(paths, a=paths.a * np.exp(1j * diffuse_phases(paths, loaded, names_by_id, wavelength)))
+        first, last = path_ends(paths)
         if self.coherent:
-            return coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength)
-        return per_element_echoes(paths, doppler, labels, radar)
+            echoes = coherent_echoes(paths, doppler, velocity, labels, radar, pose, wavelength)
+            echoes.doppler = with_ego_doppler(echoes.doppler, motion, first, last, wavelength)
+        else:
+            if motion.radar_moves:
+                rows = np.arange(paths.num_paths)
+                ego = with_ego_doppler(np.zeros((radar.num_tx, radar.num_rx, paths.num_paths)), motion, first, last,
+                                       wavelength)
+                doppler = doppler + ego[paths.source, paths.target, rows]
+            echoes = per_element_echoes(paths, doppler, labels, radar)
+            if rates is not None:
+                rates = _per_element_rates(paths, rates, echoes.shape)
+        if rates is not None:
+            echoes.doppler_rate = rates if rates.ndim == 3 else broadcast_rates(rates, echoes.shape)
+        return echoes
 
     def _blocked_paths(self, paths: TracedPaths, spheres, moving_ids) -> np.ndarray:
         """``[P]`` bool: the static paths with a segment that a moving object blocks in this frame."""
@@ -580,17 +634,23 @@ class PathEngine(Engine):
                                 vertex_doppler=self.vertex_doppler)
         return objects, centre, rot, tx_w, rx_w
 
-    @staticmethod
-    def _po_contributions(bounce, radar, tx_w, rx_w, rot, wavelength: float):
+    def _po_contributions(self, bounce, radar, tx_w, rx_w, rot, wavelength: float):
         """``(a, tau, doppler, labels)`` of a render's samples for every element pair (element gains
         included): :func:`~sionnafmcw.engines.po_kernel.element_pair_po`, the Dr.Jit kernel of
-        :func:`~sionnafmcw.engines.po_render.chain_po_gains`."""
+        :func:`~sionnafmcw.engines.po_render.chain_po_gains`, and the radar's ego-Doppler when it moves."""
         from .po_kernel import element_pair_po
 
         a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
+        doppler = with_ego_doppler(doppler, self._motion, bounce.first_point, bounce.samples.position, wavelength)
         return a, tau, doppler, bounce.samples.labels
 
-    def _po_merge(self, radar, bounce, contributions, centre, rot, block: str):
+    def _po_rates(self, bounce, wavelength: float):
+        """Doppler rates ``[P]`` (Hz/s) of a render's samples with ``cpi_motion="quadratic"``, else None."""
+        if not self._motion.quadratic or bounce.acceleration is None:
+            return None
+        return -render_range_accelerations(bounce, self._motion) / wavelength
+
+    def _po_merge(self, radar, bounce, contributions, centre, rot, block: str, rates=None):
         """A render's PO contributions ``(a, tau, doppler, labels)`` merged within the ``block``'s share
         (``"static"`` or ``"frame"``, :data:`~sionnafmcw.synthesis.STATIC_BUDGET_SHARE`) of the merge
         budget (:func:`~sionnafmcw.engines.po_merge.merge_contributions`); None without ``po_merge``."""
@@ -600,7 +660,9 @@ class PathEngine(Engine):
         if not self.po_merge:
             return None
         share = STATIC_BUDGET_SHARE if block == "static" else 1.0 - STATIC_BUDGET_SHARE
-        return merge_contributions(*contributions, bounce.directions(centre, rot), radar, merge_budget(radar, share))
+        rate = None if rates is None else broadcast_rates(rates, np.shape(contributions[0]))
+        return merge_contributions(*contributions, bounce.directions(centre, rot), radar, merge_budget(radar, share),
+                                   doppler_rate=rate)
 
     def _po_echoes(self, animation: Animation, radar, pose: RadarPose, rigid: dict, wavelength: float, static=None):
         """PO echoes of the frame: the render from the phase centre and, with ``multibounce="po"``, its
@@ -616,13 +678,20 @@ class PathEngine(Engine):
         objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
         depth = self._po_depth
         removed, num_removed = None, 0
+        origin_motion = {}
+        if self._motion.quadratic or self._motion.radar_moves:
+            from ..kinematics import element_kinematics
+
+            origin = element_kinematics(pose, radar.phase_centre[None])
+            origin_motion = {"origin_velocity": origin.velocity[0], "origin_acceleration": origin.acceleration[0]}
         if static is not None and static.po is not None:
             renders, removed, num_removed = static.po.frame(
                 world, objects, centre, rot, wavelength, depth, self.po_samples_across,
                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc)
             self.last_renders = [*static.po.renders, *renders]
         else:
-            bounce = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across)
+            bounce = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
+                            **origin_motion)
             renders = [bounce]
             while bounce.depth < depth and bounce.num_samples:
                 bounce = reflect(world, bounce, objects, rot, wavelength)
@@ -637,9 +706,14 @@ class PathEngine(Engine):
             num_samples += int(keep.sum())
             kept = b.select(keep)
             contributions = self._po_contributions(kept, radar, tx_w, rx_w, rot, wavelength)
-            merged = self._po_merge(radar, kept, contributions, centre, rot, "frame")
-            echoes.append(Echoes(*contributions) if merged is None else
-                          Echoes(merged.a, merged.tau, merged.doppler, merged.labels))
+            rates = self._po_rates(kept, wavelength)
+            merged = self._po_merge(radar, kept, contributions, centre, rot, "frame", rates)
+            if merged is None:
+                rate = None if rates is None else broadcast_rates(rates, np.shape(contributions[0]))
+                echoes.append(Echoes(*contributions, doppler_rate=rate))
+            else:
+                echoes.append(Echoes(merged.a, merged.tau, merged.doppler, merged.labels,
+                                     doppler_rate=merged.doppler_rate))
         figures = {"po_rays": int(sum(b.num_rays for b in renders)), "po_samples": num_samples,
                    "po_contributions": int(sum(e.num_contributions for e in echoes)),
                    "po_seconds": time.perf_counter() - t0}

@@ -100,7 +100,9 @@ from ..echoes import Echoes
 from ..geometry import rotation_matrix
 from ..physical_optics import SurfaceSamples
 from ..sionna_rt import dr
+from ..kinematics import element_kinematics, range_acceleration
 from .base import Engine
+from .cpi_motion import broadcast_rates, check_cpi_motion, frame_motion, render_range_accelerations, with_ego_doppler
 from .errors import PixelEngineError
 from .lambertian import diffuse_cells, diffuse_material, pixel_echoes
 from .pixel_grid import PixelGrid, PixelRender
@@ -157,6 +159,10 @@ class PixelEngine(Engine):
         Sum the PO samples the radar cannot tell apart into one contribution per cell and pair, within
         the merge's share of the noise budget (:mod:`~sionnafmcw.engines.po_merge`): the same channel
         at the carrier, fewer contributions to synthesize.
+    cpi_motion : str
+        ``"frozen"`` (default) or ``"quadratic"``: motion within the CPI, every pixel and PO sample with
+        its Doppler rate (:mod:`~sionnafmcw.engines.cpi_motion`). A moving radar's ego-Doppler enters
+        either way.
     track_kernels : bool
         Record Dr.Jit kernel launches per frame in :attr:`stats`.
 
@@ -179,9 +185,10 @@ class PixelEngine(Engine):
                  scattering_coefficient: float | None = None, vertex_doppler: bool = True,
                  model: str = "physical-optics", diffuse_phase: str = "random",
                  diffuse_cell_size: float | None = None, po_samples_across: int = 16, po_max_rays: int = 2_000_000,
-                 po_merge: bool = True, track_kernels: bool = True):
+                 po_merge: bool = True, cpi_motion: str = "frozen", track_kernels: bool = True):
         if model not in self.MODELS:
             raise PixelEngineError(f"PixelEngine: model={model!r} is unknown; choose one of {', '.join(self.MODELS)}")
+        check_cpi_motion(cpi_motion, PixelEngineError, "PixelEngine")
         if diffuse_phase not in self.DIFFUSE_PHASES:
             raise PixelEngineError(f"PixelEngine: diffuse_phase={diffuse_phase!r} is unknown; choose one of "
                                    f"{', '.join(self.DIFFUSE_PHASES)}")
@@ -216,6 +223,7 @@ class PixelEngine(Engine):
         self.po_samples_across = int(po_samples_across)
         self.po_max_rays = int(po_max_rays)
         self.po_merge = bool(po_merge)
+        self.cpi_motion = cpi_motion
         self.last_po_samples: SurfaceSamples | None = None
         self._directions = self.grid.directions().reshape(-1, 3)
         self.last_render: PixelRender | None = None
@@ -226,7 +234,7 @@ class PixelEngine(Engine):
                 "scattering_coefficient": self.scattering_coefficient, "vertex_doppler": self.vertex_doppler,
                 "model": self.model, "diffuse_phase": self.diffuse_phase,
                 "diffuse_cell_size": self.diffuse_cell_size, "po_samples_across": self.po_samples_across,
-                "po_max_rays": self.po_max_rays, "po_merge": self.po_merge,
+                "po_max_rays": self.po_max_rays, "po_merge": self.po_merge, "cpi_motion": self.cpi_motion,
                 # what the model computes (constants of the model, for pixel-vs-path comparisons)
                 "scattering": "diffuse" if self.model == "lambertian" else "physical-optics+diffuse",
                 "specular": self.model == "physical-optics"}
@@ -278,7 +286,10 @@ class PixelEngine(Engine):
         world = state.world
         rotation = rotation_matrix(pose.orientation)
         centre = pose.position + rotation @ phase_centre(radar)
-        world.place(animation, frame, self._loaded, {n: animation.object_velocity(frame, n) for n in state.names})
+        motion = frame_motion(animation, frame, pose, radar, state.names, self.cpi_motion == "quadratic",
+                              self.vertex_doppler)
+        world.place(animation, frame, self._loaded, {n: animation.object_velocity(frame, n) for n in state.names},
+                    motion)
         objects = scene_objects(self._loaded, world, state.po_materials or {n: None for n in state.names},
                                 vertex_doppler=self.vertex_doppler)
         t_cast = time.perf_counter()
@@ -290,11 +301,12 @@ class PixelEngine(Engine):
         render, echoes = pixel_echoes(frame, self.grid, radar, pose, rotation, centre, (valid, obj, prim, uv), objects,
                                       state.materials, self.array_model, phases)
         self.last_render = render
+        echoes = _pixel_motion(echoes, render, (obj, prim, uv), objects, motion, wavelength)
         figures = {"trace_seconds": trace_seconds, "num_hits": render.num_hits, "num_po_rays": 0, "num_po_samples": 0,
                    "num_po_contributions": 0}
         self.last_po_samples = None
         if self.model == "physical-optics":
-            po, po_figures = self._po_echoes(radar, objects, centre, rotation, pose, wavelength)
+            po, po_figures = self._po_echoes(radar, objects, centre, rotation, pose, wavelength, motion)
             figures.update(po_figures)
             figures["trace_seconds"] += po_figures.pop("po_trace_seconds")
             if po is not None:
@@ -326,7 +338,7 @@ class PixelEngine(Engine):
         return scatterer_phases(names[obj].astype(str), triangle, bary, cells)
 
     # ------------------------------------------------------------------ physical optics
-    def _po_echoes(self, radar, objects, centre, rotation, pose, wavelength: float):
+    def _po_echoes(self, radar, objects, centre, rotation, pose, wavelength: float, motion=None):
         """The coherent share by physical optics: the path engine's first-bounce render
         (:func:`~sionnafmcw.engines.po_render.render`, within the field of view), its element-pair
         contributions (:func:`~sionnafmcw.engines.po_kernel.element_pair_po`) and their merge
@@ -339,9 +351,11 @@ class PixelEngine(Engine):
         targets = [k for k, m in enumerate(state.materials) if state.po_materials[state.names[k]].scattering_coefficient
                    < 1.0]
         t0 = time.perf_counter()
+        origin = element_kinematics(pose, phase_centre(radar)[None])
         bounce = render(state.world, objects, centre, rotation, wavelength, targets=targets,
                         samples_across=self.po_samples_across, max_rays_per_object=self.po_max_rays,
-                        field_of_view=(self.grid.fov_az / 2, self.grid.fov_el / 2))
+                        field_of_view=(self.grid.fov_az / 2, self.grid.fov_el / 2),
+                        origin_velocity=origin.velocity[0], origin_acceleration=origin.acceleration[0])
         seconds = time.perf_counter() - t0
         kept = bounce.select(bounce.carries_po())
         self.last_po_samples = kept.samples
@@ -353,12 +367,42 @@ class PixelEngine(Engine):
         rx_w = pose.position + radar.rx_positions @ rotation.T
         a, tau, doppler = element_pair_po(kept, tx_w, rx_w, rotation, wavelength, radar.antenna_pattern)
         labels = kept.samples.labels
+        rate = None
+        if motion is not None:
+            doppler = with_ego_doppler(doppler, motion, kept.samples.position, kept.samples.position, wavelength)
+            if motion.quadratic and kept.acceleration is not None:
+                rate = broadcast_rates(-render_range_accelerations(kept, motion) / wavelength, a.shape)
         if self.po_merge:
             merged = merge_contributions(a, tau, doppler, labels, kept.directions(centre, rotation), radar,
-                                         merge_budget(radar))
-            a, tau, doppler, labels = merged.a, merged.tau, merged.doppler, merged.labels
+                                         merge_budget(radar), doppler_rate=rate)
+            a, tau, doppler, labels, rate = merged.a, merged.tau, merged.doppler, merged.labels, merged.doppler_rate
         figures["num_po_contributions"] = a.shape[-1]
-        return Echoes(a, tau, doppler, labels), figures
+        return Echoes(a, tau, doppler, labels, doppler_rate=rate), figures
+
+
+def _pixel_motion(echoes, render, hits, objects, motion, wavelength: float):
+    r"""The pixels' echoes with the radar's ego-Doppler (a moving radar) and, with ``cpi_motion="quadratic"``,
+    their Doppler rates :math:`-\ddot L/\lambda` (:mod:`~sionnafmcw.engines.cpi_motion`: from the
+    centre of the Tx elements to the pixel's point and on to the centre of the Rx elements)."""
+    if echoes.num_contributions == 0:
+        return echoes
+    keep = render.contributes
+    points = render.position[keep]
+    echoes.doppler = with_ego_doppler(echoes.doppler, motion, points, points, wavelength)
+    if motion.quadratic:
+        obj, prim, uv = (x[render.pixel][keep] for x in hits)
+        acceleration = np.zeros(points.shape)
+        for k in np.unique(obj):
+            sel = np.flatnonzero(obj == k)
+            acc = objects[k].hit_acceleration(prim[sel], uv[sel])
+            if acc is not None:
+                acceleration[sel] = acc
+        velocity = render.velocity[keep]
+        tx, rx = motion.tx_centre, motion.rx_centre
+        ldd = (range_acceleration(tx.position, tx.velocity, tx.acceleration, points, velocity, acceleration)
+               + range_acceleration(points, velocity, acceleration, rx.position, rx.velocity, rx.acceleration))
+        echoes.doppler_rate = broadcast_rates(-ldd / wavelength, echoes.shape)
+    return echoes
 
 
 __all__ = ["PixelEngine", "PixelEngineError", "PixelGrid", "PixelRender"]

@@ -46,6 +46,13 @@ between the static block and each frame like the synthesis's), and the synthesiz
 for its own error, so the two add up to at most :math:`E_{max}` per sample, 20 dB below the thermal
 noise (:mod:`sionnafmcw.synthesis`). Measured on a circle-walk frame (``benchmarks/po_merge.py``):
 the bound is 2-10 times the merge error actually measured against the unmerged cube.
+
+Doppler rates (motion within the CPI, issue 24). Contributions with Doppler rates :math:`\dot f_i`
+are also keyed on the rate, in cells of :math:`\epsilon/T_{CPI}^2` (the rate that turns the phase
+:math:`\pi\dot f t^2` by :math:`\pi\epsilon` over the CPI), and a cell takes the mean rate
+:math:`\bar{\dot f}`; the phase lost gains the term :math:`\pi(\dot f_i - \bar{\dot f})(s_l + t_k)^2`,
+so the bound gains :math:`\pi(s_{max} + t_{max})^2|M_{\dot f,c}|` with the cell's moment
+:math:`M_{\dot f,c} = \sum_i a_i'(\dot f_i - \bar{\dot f})` and that term in :math:`\psi_{i,max}`.
 """
 
 from __future__ import annotations
@@ -75,7 +82,8 @@ MIN_SAVING = 0.2
 class Merged:
     """What :func:`merge_contributions` returns: ``a, tau, doppler`` ``[M, N, G]``, ``labels [G]``, the
     cell of every input contribution ``cell [P]`` (index into ``G``), the cell ``fraction``
-    :math:`\\epsilon` taken (None: nothing merged) and its error ``bound`` (sqrt(W) per sample)."""
+    :math:`\\epsilon` taken (None: nothing merged), its error ``bound`` (sqrt(W) per sample) and the
+    cells' mean ``doppler_rate [M, N, G]`` (None for contributions without rates)."""
 
     a: np.ndarray
     tau: np.ndarray
@@ -84,6 +92,7 @@ class Merged:
     cell: np.ndarray
     fraction: float | None
     bound: float
+    doppler_rate: np.ndarray | None = None
 
 
 def label_codes(labels) -> tuple[np.ndarray, np.ndarray]:
@@ -105,10 +114,11 @@ def aperture(radar) -> float:
     return max(float(np.linalg.norm(elements - phase_centre(radar), axis=1).max()), 1e-6)
 
 
-def cell_keys(tau00, doppler00, directions, label_code, radar, fraction: float) -> np.ndarray:
+def cell_keys(tau00, doppler00, directions, label_code, radar, fraction: float, rate00=None) -> np.ndarray:
     """The cell of every contribution as one int64 key ``[P]`` (or a row of keys ``[P, K]`` where one
     would overflow) for cells of ``fraction`` :math:`\\epsilon` of the resolutions (module docstring).
-    ``directions``: ``[P, 3]`` or a pair ``(first, last)`` of them, unit vectors in the radar frame."""
+    ``directions``: ``[P, 3]`` or a pair ``(first, last)`` of them, unit vectors in the radar frame;
+    ``rate00``: the Doppler rates ``[P]`` (Hz/s) or None."""
     first, last = directions if isinstance(directions, tuple) else (directions, directions)
     d_tau = fraction / radar.bandwidth
     d_f = fraction / radar.cpi_duration
@@ -117,6 +127,8 @@ def cell_keys(tau00, doppler00, directions, label_code, radar, fraction: float) 
                np.floor(np.asarray(doppler00) / d_f), np.floor(first[:, 1] / d_u), np.floor(first[:, 2] / d_u)]
     if last is not first:
         columns += [np.floor(last[:, 1] / d_u), np.floor(last[:, 2] / d_u)]
+    if rate00 is not None:
+        columns.append(np.floor(np.asarray(rate00) / (fraction / radar.cpi_duration**2)))
     keys = np.stack([np.asarray(c, dtype=np.int64) for c in columns], axis=1)
     keys -= keys.min(axis=0)
     span = keys.max(axis=0) + 1
@@ -151,12 +163,12 @@ def cells_of_keys(keys) -> tuple[np.ndarray, np.ndarray]:
     return rank[np.asarray(cell).reshape(-1)], first_index[order]
 
 
-def merge_cells(tau00, doppler00, directions, label_code, radar, fraction: float):
+def merge_cells(tau00, doppler00, directions, label_code, radar, fraction: float, rate00=None):
     """Cell of every contribution ``[P]`` and the first contribution of every cell ``[G]`` (cells numbered
     in the order of their first contribution) for cells of ``fraction`` :math:`\\epsilon` of the
     resolutions (module docstring). ``directions``: ``[P, 3]`` or a pair ``(first, last)`` of them,
-    unit vectors in the radar frame."""
-    return cells_of_keys(cell_keys(tau00, doppler00, directions, label_code, radar, fraction))
+    unit vectors in the radar frame; ``rate00``: the Doppler rates ``[P]`` (Hz/s) or None."""
+    return cells_of_keys(cell_keys(tau00, doppler00, directions, label_code, radar, fraction, rate00))
 
 
 def _cell_sums(values, cell, num_cells):
@@ -170,46 +182,57 @@ def _cell_sums(values, cell, num_cells):
     return np.bincount(index, values.ravel(), rows * num_cells).reshape(rows, num_cells)
 
 
-def _merge(a, tau, doppler, cell, num_cells, frequency):
+def _merge(a, tau, doppler, cell, num_cells, frequency, rate=None):
     """Per pair: the cells' mean delay and Doppler and :math:`\\bar a = \\sum a_i e^{-j2\\pi f_c(\\tau_i - \\bar\\tau)}`,
-    and the carrier-corrected contributions and their deviations from the cell means."""
+    and the carrier-corrected contributions and their deviations from the cell means; with ``rate``
+    also the cells' mean Doppler rate and the deviations from it (else None, None)."""
     count = np.bincount(cell, minlength=num_cells).astype(float)
     mean_tau = _cell_sums(tau, cell, num_cells) / count
     mean_f = _cell_sums(doppler, cell, num_cells) / count
     d_tau = tau - mean_tau[:, cell]
     d_f = doppler - mean_f[:, cell]
     a_c = a * np.exp(-2j * np.pi * frequency * d_tau)
-    return _cell_sums(a_c, cell, num_cells), mean_tau, mean_f, a_c, d_tau, d_f
+    mean_r = d_r = None
+    if rate is not None:
+        mean_r = _cell_sums(rate, cell, num_cells) / count
+        d_r = rate - mean_r[:, cell]
+    return _cell_sums(a_c, cell, num_cells), mean_tau, mean_f, a_c, d_tau, d_f, mean_r, d_r
 
 
-def _bound(a, a_c, d_tau, d_f, cell, num_cells, radar) -> float:
+def _bound(a, a_c, d_tau, d_f, cell, num_cells, radar, d_r=None) -> float:
     """:math:`E_{merge}` of the module docstring (sqrt(W) per sample)."""
     t_max = radar.adc_start_time + (radar.num_samples - 1) / radar.fs
     s_max = (radar.num_chirps * radar.num_tx - 1) * radar.chirp_interval
     m_tau = np.abs(_cell_sums(a_c * d_tau, cell, num_cells)).sum(axis=1)
     m_f = np.abs(_cell_sums(a_c * d_f, cell, num_cells)).sum(axis=1)
     psi = 2 * np.pi * (radar.slope * t_max * np.abs(d_tau) + (s_max + t_max) * np.abs(d_f))
-    second = 0.5 * (np.abs(a) * psi * psi).sum(axis=1)
     first = 2 * np.pi * (radar.slope * t_max * m_tau + (s_max + t_max) * m_f)
+    if d_r is not None:
+        span2 = (s_max + t_max) ** 2
+        psi = psi + np.pi * span2 * np.abs(d_r)
+        first = first + np.pi * span2 * np.abs(_cell_sums(a_c * d_r, cell, num_cells)).sum(axis=1)
+    second = 0.5 * (np.abs(a) * psi * psi).sum(axis=1)
     return float(np.sqrt(radar.tx_power) * np.max(first + second))
 
 
-def merge_error_bound(a, tau, doppler, cell, radar) -> float:
-    """:math:`E_{merge}` (sqrt(W) per cube sample, every pair) of merging ``a, tau, doppler`` ``[M, N, P]``
-    into the cells ``cell [P]`` (module docstring)."""
+def merge_error_bound(a, tau, doppler, cell, radar, doppler_rate=None) -> float:
+    """:math:`E_{merge}` (sqrt(W) per cube sample, every pair) of merging ``a, tau, doppler`` (and
+    ``doppler_rate``) ``[M, N, P]`` into the cells ``cell [P]`` (module docstring)."""
     m, n, p = np.shape(a)
     if p == 0:
         return 0.0
     num_cells = int(cell.max()) + 1
     flat = (np.reshape(a, (m * n, p)), np.reshape(tau, (m * n, p)), np.reshape(doppler, (m * n, p)))
-    _, _, _, a_c, d_tau, d_f = _merge(*flat, cell, num_cells, radar.fc)
-    return _bound(flat[0], a_c, d_tau, d_f, cell, num_cells, radar)
+    rate = None if doppler_rate is None else np.reshape(doppler_rate, (m * n, p))
+    _, _, _, a_c, d_tau, d_f, _, d_r = _merge(*flat, cell, num_cells, radar.fc, rate)
+    return _bound(flat[0], a_c, d_tau, d_f, cell, num_cells, radar, d_r)
 
 
-def merge_contributions(a, tau, doppler, labels, directions, radar, budget: float) -> Merged:
+def merge_contributions(a, tau, doppler, labels, directions, radar, budget: float, doppler_rate=None) -> Merged:
     """The contributions ``a, tau, doppler`` ``[M, N, P]`` (``labels [P]``; ``directions`` as
-    :func:`merge_cells`) merged in the coarsest cells of :data:`FRACTIONS` whose
-    :func:`merge_error_bound` is at most ``budget`` (sqrt(W) per sample); unmerged when none is.
+    :func:`merge_cells`; ``doppler_rate`` ``[M, N, P]`` or None) merged in the coarsest cells of
+    :data:`FRACTIONS` whose :func:`merge_error_bound` is at most ``budget`` (sqrt(W) per sample);
+    unmerged when none is.
 
     The sizes worth merging (removing at least :data:`MIN_SAVING` of the contributions) are found
     first, coarsest first; within them the cell size by bisection over :data:`FRACTIONS` (the bound
@@ -221,18 +244,21 @@ def merge_contributions(a, tau, doppler, labels, directions, radar, budget: floa
     a = np.asarray(a)
     m, n, p = a.shape
     labels = np.asarray(labels).astype(str, copy=False)
-    unmerged = Merged(a, np.asarray(tau), np.asarray(doppler), labels, np.arange(p), None, 0.0)
+    unmerged = Merged(a, np.asarray(tau), np.asarray(doppler), labels, np.arange(p), None, 0.0,
+                      None if doppler_rate is None else np.asarray(doppler_rate))
     if p == 0:
         return unmerged
     names, codes = label_codes(labels)
     flat_a, flat_tau, flat_f = a.reshape(m * n, p), np.asarray(tau).reshape(m * n, p), \
         np.asarray(doppler).reshape(m * n, p)
+    flat_r = None if doppler_rate is None else np.asarray(doppler_rate).reshape(m * n, p)
     ends = [0, m * n - 1] if m * n > 1 else [0]
     keys, cache = {}, {}
 
     def key(k):
         if k not in keys:
-            keys[k] = cell_keys(flat_tau[0], flat_f[0], directions, codes, radar, FRACTIONS[k])
+            keys[k] = cell_keys(flat_tau[0], flat_f[0], directions, codes, radar, FRACTIONS[k],
+                                None if flat_r is None else flat_r[0])
         return keys[k]
 
     def cells(k):
@@ -240,12 +266,16 @@ def merge_contributions(a, tau, doppler, labels, directions, radar, budget: floa
             cache[k] = cells_of_keys(key(k))
         return cache[k]
 
+    def rows_of(x, rows):
+        return None if x is None else x[rows]
+
     def fits(k, rows):
         cell, first = cells(k)
         if first.size == p:
             return True   # nothing merged: exact
-        _, _, _, a_c, d_tau, d_f = _merge(flat_a[rows], flat_tau[rows], flat_f[rows], cell, first.size, radar.fc)
-        return _bound(flat_a[rows], a_c, d_tau, d_f, cell, first.size, radar) <= budget
+        _, _, _, a_c, d_tau, d_f, _, d_r = _merge(flat_a[rows], flat_tau[rows], flat_f[rows], cell, first.size,
+                                                  radar.fc, rows_of(flat_r, rows))
+        return _bound(flat_a[rows], a_c, d_tau, d_f, cell, first.size, radar, d_r) <= budget
 
     def worth(k):
         return count_cells(key(k)) <= (1.0 - MIN_SAVING) * p
@@ -267,11 +297,13 @@ def merge_contributions(a, tau, doppler, labels, directions, radar, budget: floa
         g = first.size
         if not worth(k):
             return unmerged
-        merged, mean_tau, mean_f, a_c, d_tau, d_f = _merge(flat_a, flat_tau, flat_f, cell, g, radar.fc)
-        bound = _bound(flat_a, a_c, d_tau, d_f, cell, g, radar)
+        merged, mean_tau, mean_f, a_c, d_tau, d_f, mean_r, d_r = _merge(flat_a, flat_tau, flat_f, cell, g, radar.fc,
+                                                                        flat_r)
+        bound = _bound(flat_a, a_c, d_tau, d_f, cell, g, radar, d_r)
         if bound <= budget:
             return Merged(merged.reshape(m, n, g), mean_tau.reshape(m, n, g), mean_f.reshape(m, n, g),
-                          names[codes[first]], cell, FRACTIONS[k], bound)
+                          names[codes[first]], cell, FRACTIONS[k], bound,
+                          None if mean_r is None else mean_r.reshape(m, n, g))
     return unmerged
 
 

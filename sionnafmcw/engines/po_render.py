@@ -272,6 +272,19 @@ class SceneObject:
             velocity = np.broadcast_to(place.velocity, position.shape).copy()
         return position, normal, velocity, curvature
 
+    def hit_acceleration(self, triangle, bary) -> np.ndarray | None:
+        """Accelerations ``[K, 3]`` (m/s^2, world) of hits on triangles ``triangle [K]`` at barycentrics
+        ``bary [K, 2]``: the placement's per-vertex field interpolated (exact for a rigid motion, whose
+        field is affine), else its uniform acceleration; None when the placement has none (no motion
+        within the CPI, :class:`~sionnafmcw.engines.surfaces.Placement`)."""
+        place = self.placement
+        if place.acceleration is None:
+            return None
+        if self.vertex_doppler and place.vertex_acceleration is not None:
+            w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
+            return interpolate(place.vertex_acceleration, self.surface.faces[triangle], w)
+        return np.broadcast_to(place.acceleration, (len(triangle), 3)).copy()
+
 
 def flat_shaded(corner_normals) -> bool:
     """True when every face of ``corner_normals [F, 3, 3]`` has one normal at its three corners."""
@@ -305,7 +318,11 @@ class Render:
     the ray's direction after the first bounce (None for bounce 1); ``parent [P]``: the index of
     each sample's ray in the previous bounce's samples (None for bounce 1); ``doppler_inner [P]``:
     :math:`\\sum_{i=2}^{d-1}\\mathbf v_i\\cdot(\\hat{\\mathbf k}_{out,i} - \\hat{\\mathbf k}_{in,i})/\\lambda` (Hz);
-    ``step [O]``: the angular step of each object's render (rad); ``num_rays``: rays cast.
+    ``step [O]``: the angular step of each object's render (rad); ``num_rays``: rays cast. For
+    motion within the CPI (rendered with the placements' accelerations, else None):
+    ``acceleration [P, 3]`` of the samples and ``source_velocity``, ``source_acceleration`` ``[P, 3]``
+    of the image source (:func:`~sionnafmcw.kinematics.mirror_image` through the previous bounces'
+    mirrors; the render's origin's on bounce 1).
     """
 
     samples: SurfaceSamples
@@ -324,6 +341,9 @@ class Render:
     num_rays: int = 0
     second_direction: np.ndarray | None = None
     parent: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+    source_velocity: np.ndarray | None = None
+    source_acceleration: np.ndarray | None = None
 
     @property
     def num_samples(self) -> int:
@@ -345,7 +365,9 @@ class Render:
                        chain_reflection=pick(self.chain_reflection), direction=pick(self.direction),
                        step_az=pick(self.step_az), step_el=pick(self.step_el), first_point=pick(self.first_point),
                        first_velocity=pick(self.first_velocity), doppler_inner=pick(self.doppler_inner),
-                       second_direction=pick(self.second_direction), parent=pick(self.parent))
+                       second_direction=pick(self.second_direction), parent=pick(self.parent),
+                       acceleration=pick(self.acceleration), source_velocity=pick(self.source_velocity),
+                       source_acceleration=pick(self.source_acceleration))
 
     def reflected(self) -> tuple[np.ndarray, np.ndarray]:
         r"""The shading normals turned to the incident side, :math:`\hat{\mathbf n}` with
@@ -438,10 +460,16 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     normal = np.empty((num, 3))
     velocity = np.empty((num, 3))
     curvature = np.empty((num, 3, 3))
+    acceleration = None
     for k, obj in enumerate(objects):
         sel = np.flatnonzero(obj_index == k)
         if sel.size:
             position[sel], normal[sel], velocity[sel], curvature[sel] = obj.hit_geometry(triangle[sel], bary[sel])
+            acc = obj.hit_acceleration(triangle[sel], bary[sel])
+            if acc is not None:
+                if acceleration is None:
+                    acceleration = np.zeros((num, 3))
+                acceleration[sel] = acc
     # the sample's distance along the ray from the (image) source, float64 from the triangle point
     distance = np.linalg.norm(position - source, axis=-1)
     direction = unit(position - source)
@@ -452,7 +480,8 @@ def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid
     names = np.array([o.name for o in objects], dtype=str)
     return SurfaceSamples(position, normal, area, edges=edges, velocity=velocity, reflection=gamma,
                           scattering_coefficient=s, object_id=np.array([o.shape_id for o in objects])[obj_index],
-                          triangle=triangle, barycentric=bary, labels=names[obj_index], curvature=curvature), direction
+                          triangle=triangle, barycentric=bary, labels=names[obj_index], curvature=curvature), \
+        direction, acceleration
 
 
 def _clip_box(start, width, low, high, half_az, half_el):
@@ -470,7 +499,7 @@ def _clip_box(start, width, low, high, half_az, half_el):
 
 def render(world, objects: list[SceneObject], origin, rotation, wavelength: float, *, targets=None,
            group: str = "all", samples_across: int = 16, max_rays_per_object: int = MAX_RAYS_PER_OBJECT,
-           step_scale: float = 1.0, field_of_view=None) -> Render:
+           step_scale: float = 1.0, field_of_view=None, origin_velocity=None, origin_acceleration=None) -> Render:
     r"""First-bounce PO render from ``origin`` (world, m) of the ``targets`` (indices into ``objects``,
     default all) of a :class:`~.surfaces.SurfaceWorld` placed in the frame; ``objects`` are the
     world's :func:`scene_objects`, in its order.
@@ -484,6 +513,8 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     nearest hit is on the object it was cast for. Raises :class:`RenderError` naming the object when
     its render would cast more than ``max_rays_per_object`` rays. ``field_of_view`` ``(half_az,
     half_el)`` (rad, radar frame) keeps each object's box within it (the pixel engine's camera).
+    ``origin_velocity``, ``origin_acceleration`` (m/s, m/s^2, world; zero when None): the origin's
+    motion, the image source's start when the placements carry accelerations (:class:`Render`).
     """
     origin = np.asarray(origin, float)
     rotation = np.asarray(rotation, float)
@@ -547,12 +578,19 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     # angular_grid_steps of the kept rays, from their grid angles
     s_az = (np.stack([-c_e * s_a, c_e * c_a, np.zeros_like(c_e)], -1) * d_az[:, None]) @ rotation.T
     s_el = (np.stack([-s_e * c_a, -s_e * s_a, c_e], -1) * d_el[:, None]) @ rotation.T
-    samples, direction = _samples(objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid, rotation,
-                                  wavelength)
+    samples, direction, acceleration = _samples(objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid,
+                                                rotation, wavelength)
     p = samples.num_samples
     eye = np.broadcast_to(np.eye(3), (p, 3, 3)).copy()
-    return Render(samples, 1, np.broadcast_to(origin, (p, 3)).copy(), eye, np.zeros((p, 3)), np.ones(p, complex),
-                  direction, s_az, s_el, samples.position.copy(), samples.velocity.copy(), np.zeros(p), steps, num_rays)
+    out = Render(samples, 1, np.broadcast_to(origin, (p, 3)).copy(), eye, np.zeros((p, 3)), np.ones(p, complex),
+                 direction, s_az, s_el, samples.position.copy(), samples.velocity.copy(), np.zeros(p), steps, num_rays)
+    if acceleration is not None:
+        out.acceleration = acceleration
+        out.source_velocity = np.broadcast_to(np.zeros(3) if origin_velocity is None else origin_velocity,
+                                              (p, 3)).astype(float)
+        out.source_acceleration = np.broadcast_to(np.zeros(3) if origin_acceleration is None else
+                                                  origin_acceleration, (p, 3)).astype(float)
+    return out
 
 
 def _empty_render(origin, steps, num_rays, depth=1) -> Render:
@@ -592,17 +630,45 @@ def reflect(world, previous: Render, objects: list[SceneObject], rotation, wavel
     s_el = np.einsum("pij,pj->pi", reflect_lin, previous.step_el[idx])
     # the tube's solid angle: |step_az x step_el| (exact for the grid's pixels to first order)
     solid = np.linalg.norm(np.cross(previous.step_az[idx], previous.step_el[idx]), axis=-1)
-    samples, direction = _samples(objects, hit_obj[idx], prim[idx], uv[idx], source, s_az, s_el, solid, rotation,
-                                  wavelength)
+    samples, direction, acceleration = _samples(objects, hit_obj[idx], prim[idx], uv[idx], source, s_az, s_el, solid,
+                                                rotation, wavelength)
     chain = previous.chain_reflection[idx] * np.sqrt(np.clip(1 - s.scattering_coefficient[idx] ** 2, 0, 1)) \
         * s.reflection[idx]
     inner = previous.doppler_inner[idx]
     if previous.depth >= 2:
         inner = inner + np.einsum("pi,pi->p", s.velocity[idx], k_out[idx] - k_in[idx]) / wavelength
     second = k_out[idx] if previous.depth == 1 else previous.second_direction[idx]
-    return Render(samples, previous.depth + 1, source, lin, off, chain, direction, s_az, s_el,
-                  previous.first_point[idx], previous.first_velocity[idx], inner, previous.step, int(valid.size),
-                  second, idx)
+    out = Render(samples, previous.depth + 1, source, lin, off, chain, direction, s_az, s_el,
+                 previous.first_point[idx], previous.first_velocity[idx], inner, previous.step, int(valid.size),
+                 second, idx)
+    if previous.acceleration is not None:
+        out.acceleration = np.zeros((idx.size, 3)) if acceleration is None else acceleration
+        out.source_velocity, out.source_acceleration = _image_motion(previous, idx, n[idx], objects)
+    return out
+
+
+def _image_motion(previous: Render, idx, normal, objects):
+    """Velocity and acceleration ``[K, 3]`` of the image source after the mirrors at ``previous``'s samples
+    ``idx`` (normals ``normal``, the mirrors' turn from their objects' placements):
+    :func:`~sionnafmcw.kinematics.mirror_image` of the previous image source."""
+    from ..kinematics import PointKinematics, mirror_image
+
+    s = previous.samples
+    omega = np.zeros((idx.size, 3))
+    alpha = np.zeros((idx.size, 3))
+    ids = s.object_id[idx]
+    for obj in objects:
+        place = obj.placement
+        if place.angular_velocity is None:
+            continue
+        sel = ids == obj.shape_id
+        if np.any(sel):
+            omega[sel], alpha[sel] = place.angular_velocity, place.angular_acceleration
+    image = mirror_image(PointKinematics(previous.source[idx], previous.source_velocity[idx],
+                                         previous.source_acceleration[idx]),
+                         PointKinematics(s.position[idx], s.velocity[idx], previous.acceleration[idx]),
+                         normal, omega, alpha)
+    return image.velocity, image.acceleration
 
 
 # ---------------------------------------------------------------------------------------- PO of a bounce

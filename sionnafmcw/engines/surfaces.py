@@ -193,13 +193,20 @@ class Placement:
     """Where a surface is in the current frame: ``rotation [3, 3]`` and ``translation [3]`` (own frame
     -> world), and its velocity field: ``motion`` (:class:`~sionnafmcw.animation.rigid.RigidMotion`:
     centroid velocity and angular velocity) or ``vertex_velocity [V, 3]`` (deforming meshes, world)
-    or the uniform ``velocity [3]``."""
+    or the uniform ``velocity [3]``. For motion within the CPI (issue 24; None otherwise): the
+    acceleration field, ``vertex_acceleration [V, 3]`` (world, per vertex of the surface) or the
+    uniform ``acceleration [3]``, and the rotation's ``angular_velocity`` and
+    ``angular_acceleration`` (a mirror's turn, :mod:`~sionnafmcw.engines.cpi_motion`)."""
 
     rotation: np.ndarray
     translation: np.ndarray
     velocity: np.ndarray
     motion: RigidMotion | None = None
     vertex_velocity: np.ndarray | None = None
+    acceleration: np.ndarray | None = None
+    vertex_acceleration: np.ndarray | None = None
+    angular_velocity: np.ndarray | None = None
+    angular_acceleration: np.ndarray | None = None
 
     def to_world(self, points) -> np.ndarray:
         return np.asarray(points, float) @ self.rotation.T + self.translation
@@ -282,12 +289,14 @@ class SurfaceWorld:
         return world
 
     # ------------------------------------------------------------------ per frame
-    def place(self, animation, frame: int, loaded, velocities: dict) -> None:
+    def place(self, animation, frame: int, loaded, velocities: dict, motion=None) -> None:
         """The placements of ``frame``: a rigid surface's rotation, translation and velocity field from
         :meth:`~sionnafmcw.animation.Animation.motion`; a deforming surface's vertices (from
         ``loaded``, the :class:`~.loaded_scene.LoadedScene` of the frame: its scene is rewritten when
         they changed) and vertex velocities; every surface's uniform ``velocities[name]`` (m/s, the
-        object's manifest velocity) where it has no field."""
+        object's manifest velocity) where it has no field. ``motion``: the frame's
+        :class:`~sionnafmcw.engines.cpi_motion.FrameMotion` with accelerations (``quadratic``), which
+        fill every placement's acceleration field; None: none."""
         for k, (name, surface) in enumerate(zip(self.names, self.surfaces)):
             v = np.asarray(velocities.get(name, np.zeros(3)), float)
             if surface.kind == "rigid":
@@ -307,6 +316,12 @@ class SurfaceWorld:
                                                vertex_velocity=None if field is None else surface.vertex_values(field))
             else:
                 self.placements[k] = Placement(np.eye(3), np.zeros(3), v)
+            if motion is not None and motion.quadratic:
+                place = self.placements[k]
+                place.acceleration = motion.object_acceleration(name)
+                field_a = motion.vertex_accelerations.get(name)   # per vertex of the stored mesh
+                place.vertex_acceleration = None if field_a is None else surface.vertex_values(field_a)
+                place.angular_velocity, place.angular_acceleration = motion.spin(name)
         self.frame = frame
 
     @staticmethod

@@ -4,6 +4,11 @@ The radar sits at ``(0, 0, height)`` with boresight along world +x (orientation 
 so a target at range :math:`R` and azimuth :math:`\phi` (rad, positive towards +y) in the
 radar's horizontal plane is at ``(R cos(phi), R sin(phi), height)``. Everything moves along the
 line of sight, so the radial velocity of a target is its speed (positive receding).
+
+A moving radar (issue 24): ``moving_plate`` and ``corner_reflectors`` take ``radar_velocity`` (m/s,
+world), the radar then moving at that constant velocity from its start pose (a radar track in the
+manifest, :func:`~.writer.straight_track`); ``car_park`` drives the radar down a lane between two
+rows of corner reflectors (pillars), looking ahead.
 """
 
 from __future__ import annotations
@@ -21,6 +26,32 @@ _HEIGHT = Parameter(1.0, float, "m", "height of the radar and of the targets' ce
 _ROOM = Parameter(False, bool, "", "put everything inside a closed concrete room (static clutter and multipath)")
 _ROUGH = Parameter(0.0, float, "", "diffuse scattering coefficient S of the metal (0: smooth, specular only; "
                    "1: fully diffuse, what the pixel engine sees)", low=0.0, high=1.0)
+_RADAR_VELOCITY = Parameter((0.0, 0.0, 0.0), tuple, "m/s", "velocity of the radar (world x, y, z): it moves at "
+                            "it from its start pose (0, 0, height) (a radar track); zero: a radar at rest",
+                            low=-100.0, high=100.0)
+
+
+def _radar_track(radar_velocity, start, num_frames, fps, builder: str):
+    """The straight radar track of ``radar_velocity`` (three numbers, m/s) from ``start``, or None when it is zero."""
+    from .writer import straight_track
+
+    v = np.asarray(radar_velocity, float)
+    if v.shape != (3,):
+        raise ValueError(f"{builder}: radar_velocity must be three numbers (m/s, world x, y, z), got {radar_velocity!r}")
+    if not np.any(v):
+        return None
+    return straight_track(start, v, (0.0, 0.0, 0.0), np.arange(num_frames) / fps)
+
+
+def _check_clearance(track, points, builder: str, minimum: float = 0.2):
+    """Every point ``[K, 3]`` at least ``minimum`` m from the radar in every frame of ``track``."""
+    if track is None:
+        return
+    for i, pose in enumerate(track):
+        d = float(np.min(np.linalg.norm(np.asarray(points, float).reshape(-1, 3) - pose.position, axis=-1)))
+        if d < minimum:
+            raise ValueError(f"{builder}: with radar_velocity={tuple(pose.velocity)} m/s the radar comes {d:.3f} m "
+                             f"from a target in frame {i} (below {minimum} m); use fewer frames or a lower speed")
 
 
 def _rotation_between(a, b) -> np.ndarray:
@@ -55,9 +86,12 @@ def _room_around(writer, points, height, margin=1.0):
     "size": Parameter(0.5, float, "m", "edge length of the plate", low=0.01, high=10.0),
     "subdiv": Parameter(1, int, "", "cells per plate edge (2*subdiv^2 triangles)", low=1, high=200),
     "height": _HEIGHT, "room": _ROOM, "scattering_coefficient": _ROUGH, "num_frames": _FRAMES, "fps": _FPS,
+    "radar_velocity": _RADAR_VELOCITY,
 })
-def moving_plate(out, start_range, speed, azimuth, size, subdiv, height, room, scattering_coefficient, num_frames, fps):
-    """Plate centre at ``R(t) = start_range + speed * t`` along azimuth ``azimuth``, normal towards the radar."""
+def moving_plate(out, start_range, speed, azimuth, size, subdiv, height, room, scattering_coefficient, num_frames, fps,
+                 radar_velocity=(0.0, 0.0, 0.0)):
+    """Plate centre at ``R(t) = start_range + speed * t`` along azimuth ``azimuth``, normal towards the radar's
+    start position; the radar at rest or moving at ``radar_velocity``."""
     u = np.array([np.cos(azimuth), np.sin(azimuth), 0.0])
     t_end = (num_frames - 1) / fps
     r_end = start_range + speed * t_end
@@ -68,12 +102,16 @@ def moving_plate(out, start_range, speed, azimuth, size, subdiv, height, room, s
     w = AnimationWriter(out, fps)
     w.add_materials(metal_material(scattering_coefficient))
     centre0 = np.array([0.0, 0.0, height])
+    track = _radar_track(radar_velocity, centre0, num_frames, fps, "moving_plate")
+    _check_clearance(track, [centre0 + (start_range + speed * i / fps) * u for i in range(num_frames)], "moving_plate")
     if room:
-        _room_around(w, [centre0 + start_range * u, centre0 + r_end * u], height)
+        _room_around(w, [centre0 + start_range * u, centre0 + r_end * u]
+                     + ([] if track is None else [track[-1].position]), height)
     for i in range(num_frames):
         r = start_range + speed * i / fps
         v, f = meshes.plate(centre0 + r * u, (size, size), normal=-u, subdiv=subdiv)
-        w.frame([{"name": "plate", "vertices": v, "faces": f, "material": METAL, "velocity": speed * u}])
+        w.frame([{"name": "plate", "vertices": v, "faces": f, "material": METAL, "velocity": speed * u}],
+                radar=None if track is None else track[i])
     w.finish(centre0, (0.0, 0.0, 0.0))
 
 
@@ -86,8 +124,10 @@ def moving_plate(out, start_range, speed, azimuth, size, subdiv, height, room, s
                      low=0.01, high=2.0),
     "height": _HEIGHT, "room": _ROOM, "scattering_coefficient": _ROUGH,
     "num_frames": Parameter(8, int, "", "number of frames", low=1, high=100_000), "fps": _FPS,
+    "radar_velocity": _RADAR_VELOCITY,
 })
-def corner_reflectors(out, ranges, azimuths, speeds, leg, height, room, scattering_coefficient, num_frames, fps):
+def corner_reflectors(out, ranges, azimuths, speeds, leg, height, room, scattering_coefficient, num_frames, fps,
+                      radar_velocity=(0.0, 0.0, 0.0)):
     """Reflector k: corner at ``(R_k + v_k t)`` along azimuth ``phi_k``, aperture axis pointing at the radar.
 
     Static reflectors (speed 0) are written once and listed in the manifest with zero velocity.
@@ -104,8 +144,12 @@ def corner_reflectors(out, ranges, azimuths, speeds, leg, height, room, scatteri
     if min(ends) < 0.2:
         raise ValueError(f"corner_reflectors: a reflector reaches range {min(ends):.3f} m (below 0.2 m)")
     rot = [_rotation_between(np.ones(3), -u) for u in dirs]
+    track = _radar_track(radar_velocity, origin, num_frames, fps, "corner_reflectors")
+    _check_clearance(track, [origin + (r + s * i / fps) * u for i in range(num_frames)
+                             for r, u, s in zip(ranges, dirs, speeds)], "corner_reflectors")
     if room:
-        _room_around(w, [origin + r * u for r, u in zip(ranges + tuple(ends), dirs + dirs)], height)
+        _room_around(w, [origin + r * u for r, u in zip(ranges + tuple(ends), dirs + dirs)]
+                     + ([] if track is None else [track[-1].position]), height)
     moving = []
     for k, (r, u, s, rk) in enumerate(zip(ranges, dirs, speeds, rot)):
         if s == 0.0:
@@ -119,7 +163,44 @@ def corner_reflectors(out, ranges, azimuths, speeds, leg, height, room, scatteri
         for k, r, u, s, rk in moving:
             v, f = meshes.trihedral(origin + (r + s * t) * u, leg, rotation=rk)
             objs.append({"name": f"reflector_{k}", "vertices": v, "faces": f, "material": METAL, "velocity": s * u})
-        w.frame(objs)
+        w.frame(objs, radar=None if track is None else track[i])
+    w.finish(origin, (0.0, 0.0, 0.0))
+
+
+@register("car_park", "A radar driving down a lane between two rows of corner reflectors (a car park's pillars).", {
+    "num_pillars": Parameter(3, int, "", "reflectors on each side of the lane", low=1, high=100),
+    "spacing": Parameter(2.5, float, "m", "distance between neighbouring reflectors along the lane", low=0.2,
+                         high=100.0),
+    "first": Parameter(3.0, float, "m", "distance along the lane from the radar's start to the first pair",
+                       low=0.2, high=1000.0),
+    "lane_width": Parameter(3.0, float, "m", "distance across the lane between the two rows", low=0.4, high=100.0),
+    "speed": Parameter(5.0, float, "m/s", "the radar's speed along the lane (world +x, its boresight)", low=0.0,
+                       high=100.0),
+    "leg": Parameter(0.1, float, "m", "leg length a of the triangular trihedrals", low=0.01, high=2.0),
+    "height": _HEIGHT, "room": _ROOM, "scattering_coefficient": _ROUGH,
+    "num_frames": Parameter(24, int, "", "number of frames", low=1, high=100_000), "fps": _FPS,
+})
+def car_park(out, num_pillars, spacing, first, lane_width, speed, leg, height, room, scattering_coefficient,
+             num_frames, fps):
+    """Reflector ``(k, side)``: corner at ``(first + k spacing, side lane_width/2, height)``, its aperture axis
+    pointing at the radar's start ``(0, 0, height)``; the radar moves along +x at ``speed`` looking ahead
+    (a radar track; every reflector is static and listed for the truth, so the run store carries its
+    range and radial velocity from the moving radar)."""
+    w = AnimationWriter(out, fps)
+    w.add_materials(metal_material(scattering_coefficient))
+    origin = np.array([0.0, 0.0, height])
+    corners = [np.array([first + k * spacing, side * lane_width / 2, height])
+               for k in range(num_pillars) for side in (1.0, -1.0)]
+    track = _radar_track((speed, 0.0, 0.0), origin, num_frames, fps, "car_park") if speed else None
+    _check_clearance(track, corners, "car_park")
+    if room:
+        _room_around(w, corners + ([] if track is None else [track[-1].position]), height)
+    for k, corner in enumerate(corners):
+        u = (corner - origin) / np.linalg.norm(corner - origin)
+        v, f = meshes.trihedral(corner, leg, rotation=_rotation_between(np.ones(3), -u))
+        w.static(f"pillar_{k // 2}_{'left' if k % 2 == 0 else 'right'}", v, f, METAL, truth=True)
+    for i in range(num_frames):
+        w.frame([], radar=None if track is None else track[i])
     w.finish(origin, (0.0, 0.0, 0.0))
 
 
@@ -144,4 +225,4 @@ def empty_room(out, length, width, room_height, radar_height, wall_material, sca
     w.finish((0.1, 0.0, radar_height), (0.0, 0.0, 0.0))
 
 
-__all__ = ["corner_reflectors", "empty_room", "moving_plate"]
+__all__ = ["car_park", "corner_reflectors", "empty_room", "moving_plate"]

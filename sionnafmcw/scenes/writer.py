@@ -96,13 +96,17 @@ class AnimationWriter:
         self._rigid[name] = {"name": name, "ply": f"../meshes/{name}.ply", "material": material,
                              "face_normals": vertex_normals is None}
 
-    def frame(self, moving: list = (), rigid: dict | None = None) -> int:
+    def frame(self, moving: list = (), rigid: dict | None = None, radar: RadarPose | None = None) -> int:
         """Write the next frame. ``moving``: deforming objects, dicts with ``name, vertices, faces,
         material, velocity`` and optionally ``vertex_velocities`` ([V, 3], m/s, world), written per
         frame. ``rigid``: ``{name: {"to_world": 4x4, "velocity": [3], "angular_velocity": [3]}}`` for
         every object declared with :meth:`rigid` (``velocity`` of its area-weighted centroid, m/s;
-        ``angular_velocity`` rad/s, world). Returns the frame index."""
+        ``angular_velocity`` rad/s, world). ``radar``: the radar's pose and motion in this frame (a
+        radar track: give it in every frame or in none). Returns the frame index."""
         i = len(self._frames)
+        if (radar is None) != (not any(f.get("radar") is not None for f in self._frames)) and self._frames:
+            raise ValueError(f"AnimationWriter.frame: frame {i} {'has no' if radar is None else 'has a'} radar pose "
+                             "but the frames before it do not agree: a radar track gives every frame's pose or none")
         rigid = rigid or {}
         missing = sorted(set(self._rigid) - set(rigid))
         unknown = sorted(set(rigid) - set(self._rigid))
@@ -129,12 +133,13 @@ class AnimationWriter:
             objects[name] = np.zeros(3)
         xml = f"frames/{i:04d}.xml"
         write_frame_xml(self.root / xml, shapes + self._static, self.materials)
-        self._frames.append({"xml": xml, "objects": objects})
+        self._frames.append({"xml": xml, "objects": objects, "radar": radar})
         return i
 
     def finish(self, radar_position, radar_orientation, extra: dict | None = None) -> Path:
-        """Write ``animation.json`` with the default radar pose (position m, orientation rad) and
-        ``extra`` top-level fields (e.g. ``"source"``; the loader ignores fields it does not know)."""
+        """Write ``animation.json`` with the default radar pose (position m, orientation rad; with a radar
+        track, give its frame 0) and ``extra`` top-level fields (e.g. ``"source"``; the loader ignores
+        fields it does not know)."""
         if not self._frames:
             raise ValueError("AnimationWriter: no frame written")
         return write_animation(self.root, self._frames, self.fps,
@@ -144,6 +149,13 @@ class AnimationWriter:
     def _check_material(self, material):
         if material not in self.materials:
             raise ValueError(f"material {material!r} is not declared (declared: {', '.join(self.materials) or 'none'})")
+
+
+def straight_track(start, velocity, orientation, times) -> list:
+    """A radar moving at a constant ``velocity`` (m/s, world) from ``start`` (m) with a fixed ``orientation``
+    (yaw, pitch, roll; rad): one :class:`~sionnafmcw.animation.RadarPose` per time (s), zero acceleration."""
+    start, velocity = np.asarray(start, float), np.asarray(velocity, float)
+    return [RadarPose(start + velocity * t, np.asarray(orientation, float), velocity=velocity) for t in times]
 
 
 def look_at_orientation(position, target) -> np.ndarray:
@@ -159,4 +171,4 @@ def look_at_orientation(position, target) -> np.ndarray:
 
 
 __all__ = ["AnimationWriter", "ITU_AT_77GHZ", "METAL", "SKIN", "itu_material", "look_at_orientation",
-           "metal_material", "skin_material"]
+           "metal_material", "skin_material", "straight_track"]

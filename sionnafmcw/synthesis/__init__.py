@@ -8,7 +8,9 @@ r"""TDM-MIMO FMCW beat synthesis: :class:`~sionnafmcw.Echoes` -> IF cube.
       e^{j2\pi(f_c\tau_{mnp} + \mu\tau_{mnp} t_k - \mu\tau_{mnp}^2/2)} + w_{lmnk},
     \qquad \tau_{mnp} = \tau_{0,mnp} - \frac{f_{D,mnp}}{f_c}\,(s_{lm} + t_k)
 
-with the exact TDM chirp start :math:`s_{lm} = (lM + q_m)T_c`, fast time
+(plus :math:`-\tfrac12(\dot f_{D,mnp}/f_c)(s_{lm} + t_k)^2` for contributions with a Doppler rate:
+motion within the CPI, issue 24, :class:`~sionnafmcw.Echoes`), with the exact TDM chirp start
+:math:`s_{lm} = (lM + q_m)T_c`, fast time
 :math:`t_k = t_{adc} + k/F_s`, carrier phase, beat frequency, Doppler, range migration inside
 the CPI, radar-equation power :math:`P_r = P_t|a|^2` and thermal noise :math:`w`
 (:mod:`~sionnafmcw.synthesis.noise`). Compared with eq. (1) of the reference paper this adds

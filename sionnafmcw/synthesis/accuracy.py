@@ -126,8 +126,13 @@ def taylor_order(theta: float, tol: float = TAYLOR_TOL) -> int:
     raise _order_error(theta)
 
 
+class OrderError(ValueError):
+    """A residual phase that needs a Taylor order above :data:`MAX_ORDER` (the fast sum of Doppler rates
+    then cuts its chirp block in two, :mod:`.nufft`)."""
+
+
 def _order_error(theta: float) -> ValueError:
-    return ValueError(
+    return OrderError(
         f"beat synthesis: residual phase {theta:.3g} rad needs a Taylor order above {MAX_ORDER}; "
         "the contribution velocities are far outside the radar's design (check Echoes.doppler units: Hz)"
     )
@@ -140,8 +145,11 @@ class SynthesisAccuracy:
     ``terms``: the Taylor monomials kept, exponents of :math:`(l'k', k'^2, l'^2)`; ``order``: their
     largest total degree; ``nufft_tol``: finufft tolerance; ``dtype``: finufft precision
     (``"complex64"`` or ``"complex128"``); ``taylor_bound``, ``nufft_bound``: :math:`E_T`,
-    :math:`E_N` of the module docstring for the echoes at hand; ``max_error``: the budget they were
-    chosen for (None: the tight relative defaults).
+    :math:`E_N` of the module docstring for the echoes at hand (:math:`E_T` includes the terms of
+    degree 3-4 of Doppler rates that no basis carries, ``fixed_phases`` of :func:`choose_accuracy`);
+    ``max_error``: the budget they were chosen for (None: the tight relative defaults);
+    ``chirp_blocks``: the chirp blocks of a sum with Doppler rates (:func:`~.nufft.chirp_blocks`;
+    the figures are then the worst block's).
     """
 
     terms: tuple
@@ -150,6 +158,7 @@ class SynthesisAccuracy:
     taylor_bound: float
     nufft_bound: float
     max_error: float | None
+    chirp_blocks: int = 1
 
     @property
     def order(self) -> int:
@@ -168,7 +177,7 @@ def monomials(order: int) -> list[tuple]:
 
 def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: float | None = None,
                     nufft_tol: float = NUFFT_TOL, taylor_tol: float = TAYLOR_TOL,
-                    max_block_phase: float = 0.0) -> SynthesisAccuracy:
+                    max_block_phase: float = 0.0, fixed_phases=None) -> SynthesisAccuracy:
     r"""Taylor terms, finufft tolerance and precision for the live contributions of every channel.
 
     ``amplitudes``: one array :math:`|a_p|` per channel; ``residual_phases``: one ``[3, P]`` array
@@ -186,8 +195,16 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     ``taylor_tol`` and the relative ``nufft_tol`` in double precision (the tight default).
     ``max_block_phase``: the largest :math:`|B_p|` (cycles per TDM block); single precision is
     used only up to :data:`SINGLE_PRECISION_MAX_BLOCK_PHASE`, where its floor was measured.
+    ``fixed_phases``: one ``[P]`` array per channel, a bound (rad) on phase terms the sum leaves out
+    whatever the settings (Doppler rates' terms of degree 3-4, :mod:`.phase`); since
+    :math:`|e^{j\phi} - 1| \le |\phi|` they cost :math:`E_F = \sqrt{P_t}\max_c\sum_p|a_p|\phi_p`,
+    taken from the Taylor share first and part of ``taylor_bound``.
     """
     root_pt = float(np.sqrt(tx_power))
+    fixed = 0.0
+    if fixed_phases is not None:
+        fixed = root_pt * max((float((np.asarray(a, float) * np.asarray(f, float)).sum())
+                               for a, f in zip(amplitudes, fixed_phases)), default=0.0)
     pairs = [(np.asarray(a, float), np.asarray(f, float).reshape(3, -1)) for a, f in zip(amplitudes, residual_phases)]
     static_sum = root_pt * max((float(a.sum()) for a, _ in pairs), default=0.0)
     # only moving contributions have a residual (theta = 0 adds exactly 0 to every weight but the
@@ -237,11 +254,11 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     if max_error is None:
         order = taylor_order(theta_max, taylor_tol)
         terms = monomials(order)
-        return SynthesisAccuracy(tuple(terms), float(nufft_tol), "complex128", tail(order, factor=False),
+        return SynthesisAccuracy(tuple(terms), float(nufft_tol), "complex128", tail(order, factor=False) + fixed,
                                  NUFFT_SAFETY * nufft_tol * sum(weight(t) for t in terms), None)
     if not (np.isfinite(max_error) and max_error > 0):
         raise ValueError(f"beat synthesis: max_error must be a positive number of sqrt(W), got {max_error!r}")
-    allowed = TAYLOR_SHARE * max_error
+    allowed = max(TAYLOR_SHARE * max_error - fixed, 0.0)
     # the smallest candidate degree whose tail leaves half the Taylor share for dropped monomials
     degree = next((d for d in range(MAX_ORDER + 1) if tail(d) <= 0.5 * allowed), None)
     if degree is None:
@@ -258,6 +275,7 @@ def choose_accuracy(amplitudes, residual_phases, tx_power: float, max_error: flo
     if terms[0] != (0, 0, 0):
         terms = [(0, 0, 0)] + [t for t in terms if t != (0, 0, 0)]
     total = sum(weights[t] for t in terms)
+    dropped += fixed
     tol = MAX_NUFFT_TOL if total == 0 else min(MAX_NUFFT_TOL, (max_error - dropped) / (NUFFT_SAFETY * total))
     # double precision cannot go much below 1e-14 relative; the bound then says so honestly
     tol = max(tol, 1e-14)

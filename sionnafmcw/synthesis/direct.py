@@ -38,12 +38,13 @@ def beat_direct(echoes, radar, chirps=None, weights=None):
                 gain = np.stack([gain, gain * weights[m, n, live]], axis=-1)   # [P, 2]
             tau0 = echoes.tau[m, n, live]
             nu = echoes.doppler[m, n, live] / radar.fc
+            beta = None if echoes.doppler_rate is None else echoes.doppler_rate[m, n, live][None, None, :] / radar.fc
             if gain.size == 0:
                 continue
             per_chirp = max(1, BLOCK_ELEMENTS // (radar.num_samples * len(gain)))
             for start in range(0, len(chirps), per_chirp):
                 s = starts[start:start + per_chirp, m][:, None, None]
-                phase = exact_phase(tau0[None, None, :], nu[None, None, :], s, fast_time[None, :, None], radar)
+                phase = exact_phase(tau0[None, None, :], nu[None, None, :], s, fast_time[None, :, None], radar, beta)
                 # phase is O(1e4) cycles; keep only its fractional part before scaling by 2*pi
                 phase -= np.round(phase)
                 out[start:start + per_chirp, m, n, :] = (np.exp(2j * np.pi * phase) @ gain).reshape(

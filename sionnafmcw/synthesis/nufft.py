@@ -69,19 +69,46 @@ finufft's own threading on these small transforms (NOTES section 4). An upsampli
 1.25 (instead of 2) shrinks the fine grids 2.6x for a slightly wider kernel: measured 2.5-3.5x
 faster transforms at the same error on the walk-77ghz grid (used at tolerances >= 1e-6; below,
 finufft chooses, as before).
+
+Motion within the CPI (issue 24). A Doppler rate :math:`\dot f_D` sweeps a contribution's Doppler
+across the CPI: its phase gains :math:`K_s w'^2(1 + \varepsilon_1 k')` with
+:math:`w' = l' + k'/(T_bF_s)` the time in TDM blocks and :math:`K_s = -\dot f_D(F - \mu\tau)T_b^2/(2f_c)`
+(:mod:`.phase`), :math:`\pi\dot f_D t^2` over the CPI: a few radians for a walking torso, tens for a
+swinging foot, far beyond a Taylor series. Two things keep the fast sum exact to its budget:
+
+* **chirp blocks**: the CPI is cut into :math:`J` blocks of chirps (:func:`chirp_blocks`), each summed
+  as a CPI of its own that starts later (:func:`_block`: :math:`\tau_0`, :math:`f_D` moved to the
+  block's start, exactly), so the sweep about the block's centre is :math:`J^2` times smaller;
+  the blocks are disjoint samples, so each may use the whole budget;
+* **accelerating bases** (``_Grid(accelerating=True)``): the residual bases become
+  :math:`l'k'(1 + \varepsilon_1k')`, :math:`k'^2` and :math:`w'^2(1 + \varepsilon_1k') - c` (centred on the
+  grid, :math:`c` the mid-range, its constant :math:`K_sc` in each strength's phase: half the Taylor
+  variable's range), the sweep seen at
+  each sample's frequency :math:`F(1 + \varepsilon_1k')`, with the residual coefficients
+  :math:`(\delta - 2hK_s, \rho - h^2K_s, K_s)`, :math:`h = 1/(T_bF_s)`, so that the sweep's shares of the
+  cross, :math:`k'^2` and :math:`l'^2` terms are one Taylor variable; the terms no basis carries
+  (:math:`E - \varepsilon_1\delta` on :math:`l'k'^2`, :math:`D - \varepsilon_1K_s` on :math:`l'^2k'`,
+  the second-order range migration :math:`K_l - K_s` on :math:`l'^2`, :math:`G - \varepsilon_1h^2K_s` on
+  :math:`k'^3`, the keystone fit's
+  :math:`\varepsilon_1 sB_p` on :math:`l'k'^2` and the degree-3-4 terms of :mod:`.phase`) are bounded
+  and charged to the Taylor share (:func:`~.accuracy.choose_accuracy`, ``fixed_phases``).
+
+The contributions are grouped by the blocks their sweep needs (:func:`rate_classes`: the many slow
+ones are not cut into the blocks of the few fast ones) and the budget is split between the groups
+by their strength sums. Echoes without Doppler rates take the fast sum above unchanged.
 """
 
 from __future__ import annotations
 
 import os
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from math import factorial
 
 import finufft
 import numpy as np
 
-from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, SynthesisAccuracy, choose_accuracy,
+from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, OrderError, SynthesisAccuracy, choose_accuracy,
                        taylor_order)
 from .phase import PhasePolynomial
 
@@ -111,6 +138,7 @@ class _Channel:
     phases: np.ndarray     # [3, P]: 2 pi |r_i| max|b_i| (rad); their sum bounds 2 pi |R_p| on the grid
     amplitude: np.ndarray  # |a_p|
     weight: np.ndarray | None = None   # real per-contribution weights of a second sum (``weights``), or None
+    dropped: np.ndarray | None = None  # phase (rad) of the terms the accelerating bases leave out, or None
 
     def strength(self, dtype) -> np.ndarray:
         r""":math:`g_p = \bar a_p e^{j\,\mathrm{phase}}` in the transform's precision: in complex64 the
@@ -137,10 +165,12 @@ ANCHORS = np.array([[-np.pi, -np.pi], [np.pi, np.pi]])
 
 
 class _Grid:
-    """The warped targets (X, Y) and the residual bases of one radar."""
+    """The warped targets (X, Y) and the residual bases of one radar; ``accelerating``: the bases of echoes
+    with Doppler rates (module docstring, "Motion within the CPI")."""
 
-    def __init__(self, radar):
+    def __init__(self, radar, accelerating: bool = False):
         L, Ns = radar.num_chirps, radar.num_samples
+        self.accelerating = bool(accelerating)
         self.l0 = (L - 1) / 2.0
         lc = np.arange(L) - self.l0
         kc = np.arange(Ns) - (Ns - 1) / 2.0
@@ -150,8 +180,21 @@ class _Grid:
         grid_l, grid_k = np.meshgrid(lc, kc, indexing="ij")  # [L, Ns]
         self.x = grid_k.ravel()
         self.y = (grid_l * (1 + self.eps1 * grid_k) + self.eps2 * grid_k**2).ravel()
-        self.basis = (grid_l * grid_k, grid_k**2, grid_l**2)
+        # the time within the block in TDM blocks, w' = l' + k'/(T_b F_s) (module docstring)
+        self.time_step = 1.0 / (radar.block_interval * radar.fs)
+        self.sweep_offset = 0.0
+        if self.accelerating:   # the sweep and the cross term seen at each sample's frequency F(1 + eps1 k')
+            key = 1 + self.eps1 * grid_k
+            sweep = (grid_l + self.time_step * grid_k) ** 2 * key
+            # centred on the grid (its constant part goes into each strength's phase): half the range
+            self.sweep_offset = 0.5 * float(sweep.max() + sweep.min())
+            self.basis = (grid_l * grid_k * key, grid_k**2, sweep - self.sweep_offset)
+        else:
+            self.basis = (grid_l * grid_k, grid_k**2, grid_l**2)
         self.basis_max = tuple(float(np.abs(b).max()) for b in self.basis)
+        # largest |l' k'^2|, |l'^2 k'|, |l'|^2 and |k'|^3: the remainder terms of the accelerating bases
+        l_max, k_max = float(np.abs(lc).max(initial=0)), float(np.abs(kc).max(initial=0))
+        self.remainder_max = (l_max * k_max**2, l_max**2 * k_max, l_max**2, k_max**3)
 
 
 def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
@@ -170,9 +213,23 @@ def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
                 live = slice(None)
             a = echoes.a[m, n, live]
             nu = echoes.doppler[m, n, live] / radar.fc
-            poly = PhasePolynomial.from_delay_doppler(echoes.tau[m, n, live], nu, slot[m], radar)
+            beta = echoes.rates()[m, n, live] / radar.fc if grid.accelerating else None
+            poly = PhasePolynomial.from_delay_doppler(echoes.tau[m, n, live], nu, slot[m], radar, beta)
             poly = poly.shift_chirp_origin(grid.l0)
             residual = (poly.c - grid.eps1 * poly.b, poly.k_u - grid.eps2 * poly.b, poly.k_l)
+            dropped = None
+            if grid.accelerating:
+                # the sweep K_s w'^2 (1 + eps1 k') takes its share of the cross, k'^2 and l'^2 terms; what the
+                # three bases leave (l'k'^2, l'^2k', the l'^2 of second-order range migration, k'^3) is dropped
+                sweep, h = poly.sweep, grid.time_step
+                cross = residual[0]
+                residual = (cross - 2 * h * sweep, residual[1] - h * h * sweep, sweep)
+                poly.phi0 = poly.phi0 + sweep * grid.sweep_offset   # the centred basis's constant
+                dropped = 2 * np.pi * (np.abs(poly.e - grid.eps1 * cross) * grid.remainder_max[0]
+                                       + np.abs(poly.d - grid.eps1 * sweep) * grid.remainder_max[1]
+                                       + np.abs(poly.k_l - sweep) * grid.remainder_max[2]
+                                       + np.abs(poly.g - grid.eps1 * h * h * sweep) * grid.remainder_max[3]
+                                       + poly.dropped)
             phases = np.empty((3, a.size))
             for i, r in enumerate(residual):
                 np.abs(r, out=phases[i])
@@ -188,7 +245,7 @@ def _channels(echoes, radar, grid: _Grid, weights=None) -> list[_Channel]:
             x = poly.a - wraps
             x *= 2 * np.pi
             weight = None if weights is None else np.asarray(weights[m, n, live], dtype=float)
-            out.append(_Channel(m, n, x, 2 * np.pi * poly.b, a, phase, residual, phases, np.abs(a), weight))
+            out.append(_Channel(m, n, x, 2 * np.pi * poly.b, a, phase, residual, phases, np.abs(a), weight, dropped))
     return out
 
 
@@ -223,21 +280,123 @@ def _plans(echoes, radar, grid: _Grid, channels_per_plan: int | None, weights=No
         largest = max((c.x.size for c in channels), default=0)
         channels_per_plan = CHANNELS_PER_PLAN if largest <= SHARED_PLAN_MAX_SOURCES else 1
     groups = [channels[i:i + channels_per_plan] for i in range(0, len(channels), channels_per_plan)]
-    return channels, groups, [_fit_keystone(g, grid) for g in groups]
+    shifts = [_fit_keystone(g, grid) for g in groups]
+    if grid.accelerating:
+        # the fitted slope moves shift * B_p l'k' into the targets, the residual keeps its basis
+        # l'k'(1 + eps1 k'): what differs, shift * B_p * eps1 * l'k'^2, joins the dropped terms
+        for group, shift in zip(groups, shifts):
+            if shift:
+                for c in group:
+                    c.dropped = c.dropped + np.abs(shift * c.y) * grid.eps1 * grid.remainder_max[0]
+    return channels, groups, shifts
 
 
 def synthesis_accuracy(echoes, radar, max_error: float | None = None, nufft_tol: float = NUFFT_TOL,
                        taylor_tol: float = TAYLOR_TOL, channels_per_plan: int | None = None) -> SynthesisAccuracy:
     """The settings :func:`beat_nufft` uses for these echoes and their error bound (:mod:`.accuracy`);
-    ``channels_per_plan`` as there (the keystone is fitted per plan, so the groups matter)."""
+    ``channels_per_plan`` as there (the keystone is fitted per plan, so the groups matter). With Doppler
+    rates: the settings of the chirp block with the largest bound (``chirp_blocks`` blocks)."""
+    if echoes.accelerating:
+        worst = None
+        spans = chirp_blocks(echoes, radar, max_error, least=max(j for j, _ in rate_classes(echoes, radar)))
+        for start, stop in spans:
+            part, sub = _block(echoes, radar, start, stop)
+            channels, _, _ = _plans(part, sub, _Grid(sub, accelerating=True), channels_per_plan)
+            acc = _accuracy(channels, sub, max_error, nufft_tol, taylor_tol)
+            if worst is None or acc.error_bound > worst.error_bound:
+                worst = acc
+        return replace(worst, chirp_blocks=len(spans))
     channels, _, _ = _plans(echoes, radar, _Grid(radar), channels_per_plan)
     return _accuracy(channels, radar, max_error, nufft_tol, taylor_tol)
 
 
 def _accuracy(channels, radar, max_error, nufft_tol, taylor_tol) -> SynthesisAccuracy:
     max_b = max((float(np.abs(c.y).max()) / (2 * np.pi) for c in channels), default=0.0)
+    fixed = None
+    if any(c.dropped is not None for c in channels):
+        fixed = [np.zeros(c.amplitude.size) if c.dropped is None else c.dropped for c in channels]
     return choose_accuracy([c.amplitude for c in channels], [c.phases for c in channels], radar.tx_power,
-                           max_error, nufft_tol, taylor_tol, max_block_phase=max_b)
+                           max_error, nufft_tol, taylor_tol, max_block_phase=max_b, fixed_phases=fixed)
+
+
+#: Largest Doppler sweep phase (rad, about its mean) of a contribution inside one chirp block with a
+#: noise budget (:func:`chirp_blocks`, :func:`rate_classes`), and without one (the tight relative
+#: tolerances need order-6 Taylor terms to reach 1e-8 at 0.2 rad). Measured on three circle-walk frames
+#: with cpi_motion="quadratic" (``benchmarks/cpi_motion.py``): 0.7, 1 and 2 rad within the machine's
+#: noise of one another (2.0-5.2 s per frame's moving echoes on two shared cores).
+BLOCK_SWEEP_PHASE = 1.0
+TIGHT_BLOCK_SWEEP_PHASE = 0.12
+#: Taylor degree a block's sweep should need at most with a noise budget (:func:`chirp_blocks`).
+BLOCK_TAYLOR_ORDER = 4
+
+
+def chirp_blocks(echoes, radar, max_error: float | None = None, least: int = 1) -> list[tuple[int, int]]:
+    r"""The chirp blocks ``[(start, stop), ...]`` of the fast sum of ``echoes`` with Doppler rates.
+
+    A contribution's Doppler sweep over a block of :math:`L_J` chirps is
+    :math:`\theta_p = \tfrac{\pi}{2}|\dot f_{D,p}|(T_bL_J/2)^2(1 + \varepsilon_1 k'_{max})` about its mean
+    (the :math:`K_s` term of the centred sweep basis, module docstring), :math:`J^2` times smaller
+    than over the CPI. The blocks
+    are the fewest :math:`J` equal ones (at most one chirp each) with every :math:`\theta_p \le`
+    :data:`BLOCK_SWEEP_PHASE` and, with a budget ``max_error``, a Taylor tail at degree
+    :data:`BLOCK_TAYLOR_ORDER` (:mod:`.accuracy`,
+    :math:`\sqrt{P_t}\max_c\sum_p|a_p|e^{\theta_p}\theta_p^{Q+1}/(Q+1)!`) within half the Taylor
+    share; without a budget every :math:`\theta_p \le` :data:`TIGHT_BLOCK_SWEEP_PHASE`; at least ``least``
+    blocks."""
+    from .accuracy import TAYLOR_SHARE
+
+    L = radar.num_chirps
+    rate = np.abs(echoes.rates()) * (echoes.a != 0)
+    peak = float(rate.max(initial=0.0))
+    if peak == 0.0:
+        return [(0, L)]
+    keystone = 1 + radar.slope / (radar.fs * radar.centre_frequency) * (radar.num_samples - 1) / 2
+    scale = 0.5 * np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone   # theta over the CPI per Hz/s
+    cap = BLOCK_SWEEP_PHASE if max_error is not None else TIGHT_BLOCK_SWEEP_PHASE
+    count = int(min(L, max(least, np.ceil(np.sqrt(scale * peak / cap)))))
+    if max_error is not None:
+        m, n = radar.num_tx, radar.num_rx
+        amplitude = np.abs(echoes.a).reshape(m * n, -1)
+        theta_cpi = (scale * rate).reshape(m * n, -1)
+        allowed = 0.5 * TAYLOR_SHARE * max_error / np.sqrt(radar.tx_power)
+        q = BLOCK_TAYLOR_ORDER
+        while count < L:
+            theta = theta_cpi / count**2
+            if float((amplitude * np.exp(theta) * theta ** (q + 1)).sum(axis=1).max()) / factorial(q + 1) <= allowed:
+                break
+            count += 1
+    edges = np.linspace(0, L, count + 1).round().astype(int)
+    return [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+
+
+_BLOCK_RADARS: dict = {}
+
+
+def _block(echoes, radar, start: int, stop: int):
+    r"""The contributions of chirps ``start .. stop - 1`` as the echoes of a CPI that starts with chirp
+    ``start`` (:math:`t_s = \mathrm{start}\,T_b` later): :math:`\tau_0 - (f_Dt_s + \dot f_Dt_s^2/2)/f_c`,
+    :math:`f_D + \dot f_Dt_s`, the same :math:`\dot f_D` and gains (exact), and the radar of
+    ``stop - start`` chirps."""
+    from ..echoes import Echoes
+
+    key = (id(radar), stop - start)
+    sub = _BLOCK_RADARS.get(key)
+    if sub is None or sub[0] is not radar:
+        if len(_BLOCK_RADARS) > 64:
+            _BLOCK_RADARS.clear()
+        sub = _BLOCK_RADARS[key] = (radar, radar.replace(num_chirps=stop - start))
+    t_s = start * radar.block_interval
+    rate = echoes.rates()
+    if start == 0:
+        part = echoes
+    else:
+        part = object.__new__(Echoes)   # shifted copies of checked arrays: not checked again
+        part.a = echoes.a
+        part.tau = echoes.tau - (echoes.doppler * t_s + 0.5 * rate * t_s**2) / radar.fc
+        part.doppler = echoes.doppler + rate * t_s
+        part.doppler_rate, part.labels = echoes.doppler_rate, None
+        part.static_count, part.static_key = 0, None
+    return part, sub[1]
 
 
 def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUFFT_TOL,
@@ -277,8 +436,114 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     """
     if channels_per_plan is not None and channels_per_plan < 1:
         raise ValueError(f"beat_nufft: channels_per_plan must be >= 1, got {channels_per_plan!r}")
+    if echoes.accelerating:
+        return _beat_blocks(echoes, radar, workers, nufft_tol, taylor_tol, max_error, channels_per_plan, upsampfac,
+                            precision, weights)
+    return _beat(echoes, radar, _Grid(radar), workers, nufft_tol, taylor_tol, max_error, channels_per_plan,
+                 upsampfac, precision, weights)
+
+
+def rate_classes(echoes, radar) -> list[tuple[int, np.ndarray]]:
+    r"""The contributions of ``echoes`` grouped by the chirp blocks their Doppler sweep needs:
+    ``[(J, mask [P]), ...]``, :math:`J` a power of two, the smallest with
+    :math:`\theta_{p,CPI}/J^2 \le` :data:`BLOCK_SWEEP_PHASE` (:func:`chirp_blocks`; :math:`\theta_p` the
+    largest over the element pairs), ``J = 0`` for contributions without a rate (the sum of
+    :func:`beat_nufft` without Doppler rates). A walk frame's body sweeps a few radians over the CPI,
+    the odd chain off a swinging limb hundreds: grouped, the many slow ones are not cut into the
+    blocks the few fast ones need."""
+    L = radar.num_chirps
+    keystone = 1 + radar.slope / (radar.fs * radar.centre_frequency) * (radar.num_samples - 1) / 2
+    scale = 0.5 * np.pi * (radar.block_interval * (L - 1) / 2) ** 2 * keystone
+    rate = np.abs(echoes.rates()) * (echoes.a != 0)
+    theta = scale * rate.reshape(-1, rate.shape[-1]).max(axis=0, initial=0.0)
+    need = np.ceil(np.sqrt(theta / BLOCK_SWEEP_PHASE))
+    level = np.where(theta > 0, 2.0 ** np.ceil(np.log2(np.maximum(need, 1.0))), 0).astype(np.int64)
+    level = np.minimum(level, L)
+    return [(int(j), level == j) for j in np.unique(level)]
+
+
+def _beat_blocks(echoes, radar, workers, nufft_tol, taylor_tol, max_error, channels_per_plan, upsampfac, precision,
+                 weights):
+    r""":func:`beat_nufft` of echoes with Doppler rates: the contributions grouped by :func:`rate_classes`,
+    each group's sum in its own chirp blocks (:func:`chirp_blocks`; each block its own fast sum with the
+    accelerating bases, within the group's budget: the blocks are disjoint samples), the groups added;
+    the budget is split between the groups in proportion to their strength sums
+    :math:`\max_c\sum_p|a_p|` (the bounds of :mod:`.accuracy` grow with them)."""
+    from ..echoes import Echoes
+
+    classes = rate_classes(echoes, radar)
+    if len(classes) == 1:
+        return _beat_class(echoes, radar, classes[0][0], workers, nufft_tol, taylor_tol, max_error, channels_per_plan,
+                           upsampfac, precision, weights)
+    strength = [float(np.abs(echoes.a[..., mask]).sum(axis=-1).max()) for _, mask in classes]
+    total = sum(strength) or 1.0
+    out = None
+    for (level, mask), part_strength in zip(classes, strength):
+        if part_strength == 0.0 and out is not None:
+            continue   # only padding (zero gains): nothing to add
+        part = Echoes(echoes.a[..., mask], echoes.tau[..., mask], echoes.doppler[..., mask],
+                      doppler_rate=echoes.rates()[..., mask] if level else None)
+        budget = None if max_error is None else max_error * max(part_strength / total, 1e-12)
+        cubes = _beat_class(part, radar, level, workers, nufft_tol, taylor_tol, budget, channels_per_plan, upsampfac,
+                            precision, None if weights is None else weights[..., mask])
+        cubes = (cubes,) if weights is None else cubes
+        if out is None:
+            out = [c.astype(np.complex128) for c in cubes]
+        else:
+            for o, c in zip(out, cubes):
+                o += c
+    return out[0] if weights is None else (out[0], out[1])
+
+
+def _beat_class(echoes, radar, level: int, workers, nufft_tol, taylor_tol, max_error, channels_per_plan, upsampfac,
+                precision, weights):
+    """The fast sum of one :func:`rate_classes` group: without rates (``level`` 0) as :func:`beat_nufft` without
+    them, else in at least ``level`` chirp blocks (:func:`chirp_blocks`); a block whose residual still needs
+    a Taylor order above :data:`~.accuracy.MAX_ORDER` (the sweep with the other residuals and the dropped
+    terms) is summed again as two halves, and a single chirp that still does by the direct sum."""
+    if level == 0:
+        return _beat(echoes, radar, _Grid(radar), workers, nufft_tol, taylor_tol, max_error, channels_per_plan,
+                     upsampfac, precision, weights)
     L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
-    grid = _Grid(radar)
+    sums = 1 if weights is None else 2
+    out = None
+    pending = list(chirp_blocks(echoes, radar, max_error, least=level))
+    while pending:
+        start, stop = pending.pop(0)
+        part, sub = _block(echoes, radar, start, stop)
+        try:
+            cubes = _beat(part, sub, _Grid(sub, accelerating=True), workers, nufft_tol, taylor_tol, max_error,
+                          channels_per_plan, upsampfac, precision, weights)
+        except OrderError:
+            if stop - start == 1:   # the dropped terms alone exceed the Taylor share: this chirp exactly
+                from .direct import beat_direct
+
+                cube = beat_direct(part, sub, weights=weights)
+                cubes = cube if weights is not None else cube.astype(np.complex128)
+                cubes = (cubes,) if weights is None else cubes
+                if out is None:
+                    out = np.zeros((sums, L, M, N, Ns), dtype=np.complex128)
+                out = out.astype(np.complex128, copy=False)
+                for o, c in enumerate(cubes):
+                    out[o, start:stop] = c
+                continue
+            middle = (start + stop) // 2
+            pending[:0] = [(start, middle), (middle, stop)]
+            continue
+        cubes = (cubes,) if weights is None else cubes
+        if out is None:
+            out = np.zeros((sums, L, M, N, Ns), dtype=cubes[0].dtype)
+        elif out.dtype != cubes[0].dtype and cubes[0].dtype == np.complex128:
+            out = out.astype(np.complex128)
+        for o, cube in enumerate(cubes):
+            out[o, start:stop] = cube
+    return out[0] if weights is None else (out[0], out[1])
+
+
+def _beat(echoes, radar, grid, workers, nufft_tol, taylor_tol, max_error, channels_per_plan, upsampfac, precision,
+          weights):
+    """The fast sum of :func:`beat_nufft` on ``grid`` (:class:`_Grid` of ``radar``)."""
+    L, M, N, Ns = radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples
     channels, groups, shifts = _plans(echoes, radar, grid, channels_per_plan, weights)
     accuracy = _accuracy(channels, radar, max_error, nufft_tol, taylor_tol)
     dtype = np.dtype(precision or accuracy.dtype)
@@ -350,5 +615,5 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
     return out[0] if weights is None else (out[0], out[1])
 
 
-__all__ = ["CHANNELS_PER_PLAN", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL", "UPSAMPFAC",
-           "WEIGHTED_RESIDUAL_MAX", "beat_nufft", "synthesis_accuracy", "taylor_order"]
+__all__ = ["BLOCK_SWEEP_PHASE", "BLOCK_TAYLOR_ORDER", "CHANNELS_PER_PLAN", "TIGHT_BLOCK_SWEEP_PHASE", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL",
+           "UPSAMPFAC", "WEIGHTED_RESIDUAL_MAX", "beat_nufft", "chirp_blocks", "rate_classes", "synthesis_accuracy", "taylor_order"]

@@ -12,12 +12,14 @@ pixel engine, or both, and processed as in the paper:
   ``truth_radial_velocity``, as the paper takes it from the animation per frame);
 * :math:`e_{velo} = \frac1N\sum_n |\hat v_n - v_n|` (the paper reports 1.3 m/s).
 
-The engines evaluate the scene at :math:`t_n` and hold every path's Doppler over the CPI (first
-order in time: constant velocity within the CPI), so the frame-time truth is what the simulated
-signal carries. A real torso accelerates during the 27 ms CPI (centripetal :math:`v^2/r` = 6.8
-m/s^2 on the circle), so the metrics also give ``e_velo_cpi_centre`` against the truth at the CPI
-centre (:meth:`sionnafmcw.store.Run.truth_at_cpi_centre`): the difference between the
-two is the acceleration the simulator leaves out, not an estimation error.
+By default the engines evaluate the scene at :math:`t_n` and hold every path's Doppler over the CPI
+(``cpi_motion="frozen"``: constant velocity within the CPI), so the frame-time truth is what the
+simulated signal carries. A real torso accelerates during the 27 ms CPI (centripetal :math:`v^2/r`
+= 6.8 m/s^2 on the circle, and the gait's own oscillation), so the metrics also give
+``e_velo_cpi_centre`` against the truth at the CPI centre (:meth:`sionnafmcw.store.Run.truth_at_cpi_centre`).
+``--cpi-motion quadratic`` lets every contribution's Doppler sweep across the CPI with its
+acceleration (issue 24, ``docs/guide/motion.md``); the estimate then follows the body's mean velocity
+over the CPI.
 
 Pass marks: :math:`e_{velo} \le 1.3` m/s (the paper's figure) for the path engine and
 :math:`\le 0.3` m/s (issue 5) for the pixel engine in the paper's model. The Doppler bin of
@@ -131,6 +133,9 @@ def main(argv=None) -> int:
     parser.add_argument("--n-el", type=int, default=None, help="pixel engine elevation pixels")
     parser.add_argument("--pixel-model", choices=("lambertian", "physical-optics"), default=PIXEL_DEFAULTS["model"],
                         help="pixel engine model (default: the paper's eq. (2), lambertian)")
+    parser.add_argument("--cpi-motion", choices=("frozen", "quadratic"), default=None,
+                        help="motion within the CPI, both engines (default: the engines' own, frozen; "
+                             "docs/guide/motion.md)")
     parser.add_argument("--seed", type=int, default=0, help="noise seed")
     parser.add_argument("--no-noise", action="store_true")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -154,6 +159,9 @@ def main(argv=None) -> int:
         "pixel": {"model": args.pixel_model} | {k: v for k, v in (("n_az", args.n_az), ("n_el", args.n_el))
                                                 if v is not None},
     }
+    if args.cpi_motion is not None:
+        for engine_options in options.values():
+            engine_options["cpi_motion"] = args.cpi_motion
 
     metrics = {"experiment": "circle_walk", "radar": radar.name, "scene": str(scene_dir), "frames": n,
                "targets_m_per_s": {e: TARGETS[e] for e in engines}, "engines": {}, "figures": []}
