@@ -192,10 +192,33 @@ class Echoes:
             value = _concatenate_rates(parts)
         else:
             value = np.concatenate([getattr(p, name) for p in parts], axis=2)
-        setattr(self, name, value)
+        self.__dict__[name] = value
         if all(f in self.__dict__ for f in JOINED_FIELDS):
             del self._parts   # everything is joined: the parts are no longer needed
         return value
+
+    def __setattr__(self, name, value):
+        # a joined Echoes whose arrays are replaced (e.g. gains filtered) stops reading its parts: its
+        # other arrays are joined first, so that no reader (:meth:`contributions`) sees the parts' old ones
+        parts = self.__dict__.get("_parts")
+        if parts is not None and name in JOINED_FIELDS:
+            for other in JOINED_FIELDS:
+                if other != name and other not in self.__dict__:
+                    getattr(self, other)
+            self.__dict__.pop("_parts", None)
+        object.__setattr__(self, name, value)
+
+    def map_parts(self, function) -> "Echoes":
+        """``function(part)`` for every part of a joined :class:`Echoes` (:meth:`concatenate`), joined again
+        the same lazy way with this one's static block; ``function(self)`` for one that is not joined.
+        For what changes every contribution the same way (the IF chain's gain): the static block's
+        part stays a part, nothing is copied."""
+        parts = self.__dict__.get("_parts")
+        if parts is None:
+            return function(self)
+        out = Echoes.concatenate([function(p) for p in parts])
+        out.static_count, out.static_key = self.static_count, self.static_key
+        return out
 
     @property
     def accelerating(self) -> bool:
@@ -302,6 +325,8 @@ class Echoes:
         static block and labels are kept."""
         if self.doppler_rate is None:
             return self
+        if "_parts" in self.__dict__:
+            return self.map_parts(Echoes.frozen)
         import copy
 
         out = copy.copy(self)

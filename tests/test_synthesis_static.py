@@ -242,3 +242,31 @@ def test_a_joined_frame_shares_the_static_block_until_its_arrays_are_read(radar)
     np.testing.assert_array_equal(
         synthesize(Echoes.concatenate([static, *movers]), radar, noise=False, static_cache=cache),
         synthesize(whole, radar, noise=False, static_cache={}))
+
+
+def test_a_joined_frame_carries_doppler_rates_and_replaced_gains(radar):
+    """The lazy join covers the optional Doppler rates (zeros for a part without), and a joined frame
+    whose gains are replaced (the IF chain's filter) reads the new gains everywhere: in
+    :meth:`Echoes.contributions` too, not its parts' old ones."""
+    static = room(radar, count=6)
+    rng = np.random.default_rng(9)
+    accelerating = Echoes.point_targets(radar, [2.0, 3.0], [1.0, -1.0], [0.1, -0.1],
+                                        radial_accelerations=[20.0, -30.0])
+    joined = Echoes.concatenate([static, accelerating])
+    rates = joined.contributions(joined.static_count).doppler_rate
+    np.testing.assert_array_equal(rates, accelerating.doppler_rate)
+    assert joined.contributions(0, 6).doppler_rate is None
+    np.testing.assert_array_equal(joined.doppler_rate[..., :6], 0.0)
+    np.testing.assert_array_equal(joined.doppler_rate[..., 6:], accelerating.doppler_rate)
+    frozen = Echoes.concatenate([static, accelerating]).frozen()
+    assert frozen.doppler_rate is None and frozen.static_count == 6
+    gains = np.exp(1j * rng.uniform(0, 2 * np.pi, joined.a.shape[-1]))
+    replaced = Echoes.concatenate([static, accelerating])
+    replaced.a = replaced.a * gains
+    np.testing.assert_array_equal(replaced.contributions(0, 6).a, static.a * gains[:6])
+    np.testing.assert_array_equal(replaced.contributions(4, 8).tau, joined.tau[..., 4:8])
+    mapped = Echoes.concatenate([static, accelerating]).map_parts(
+        lambda e: Echoes(2 * e.a, e.tau, e.doppler, e.labels, doppler_rate=e.doppler_rate,
+                         static_count=e.static_count, static_key=e.static_key))
+    assert (mapped.static_count, mapped.static_key) == (6, "room") and "a" not in vars(mapped)
+    np.testing.assert_array_equal(mapped.a, 2 * joined.a)

@@ -43,6 +43,13 @@ def filter_echoes(echoes, radar):
     same from frame to frame, as the chain's gain depends on nothing else)."""
     if not radar.if_filter or echoes.num_contributions == 0:
         return echoes
+    return echoes.map_parts(lambda part: _filtered(part, radar))
+
+
+def _filtered(echoes, radar):
+    """:func:`filter_echoes` of an :class:`~sionnafmcw.Echoes` that is not joined (or one part)."""
+    if echoes.num_contributions == 0:
+        return echoes
     h = if_filter.response(radar.if_filter, beat_frequency(echoes, radar), radar.fs)
     out = copy.copy(echoes)
     out.a = echoes.a * np.conj(h)
