@@ -5,7 +5,10 @@ regenerated, with ``python tests/engine_reference.py``, when the path engine's e
 purpose: issue 11 (one trace for the whole array, ``array_model="coherent"``, every element pair
 from the interaction points; coincident specular paths removed), and again, for the path engine
 only (``python tests/engine_reference.py --only path``, the pixel arrays kept as stored), for
-issue 11's PO direct echo, ray-tube PO multi-bounce and random-phase diffuse paths. ``tests/test_engine_reference.py``
+issue 11's PO direct echo, ray-tube PO multi-bounce and random-phase diffuse paths; and, both
+engines, for issues 22-24 (the walker as 13 rigid segments of 32 mm edges stored once with a
+transform per frame, its PO samples on the smooth surface, the worth-first PO merge).
+``tests/test_engine_reference.py``
 recomputes the same cases with today's code and asserts that every array is identical, bit for
 bit. Regenerate it only for a change that is meant to alter the echoes, and say so in the commit.
 
@@ -27,7 +30,7 @@ rounding) moves them: measured on these cases by shifting the radar by 1 µm
 :data:`POWER_TOLERANCE_DB`.
 
 Cases (small, deterministic):
-* ``walk``: two frames of the circle walk (a deforming body with per-vertex velocities, skin,
+* ``walk``: two frames of the circle walk (a body of rigid segments turning in every frame, skin,
   a diffuse room), path engine (deterministic candidate generator, depth 2) and pixel engine
   (both array models);
 * ``corners``: two moving metal trihedrals in a concrete room, path engine depth 3 (multi-bounce).
