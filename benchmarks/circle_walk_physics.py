@@ -45,6 +45,17 @@ the torso a specular echo that the diffuse-only body lacked. Seconds per frame, 
 seed under the same load: engine 2.1 -> 4.6 and simulate 2.6 -> 6.6 (seed 2), engine 2.05 -> 3.5
 and simulate 2.8 -> 4.1 (seed 3); the PO render of the room (1.5e5 of 1.9e5 samples) is most of
 the difference.
+
+``--models cpi_motion`` measured (issue 24; 100 frames, solver seeds 1, 2, 3, the defaults: 32 mm
+rigid walker on its smooth PO surface, ``--samples-per-src`` default, scene built by the script)::
+
+    model      e_velo per seed      mean   e_velo (CPI centre)  within one bin    limb > torso  limb cell
+    frozen     0.474 0.458 0.452    0.461  0.523 0.502 0.493    0.42 0.43 0.43    41 43 46      39 38 40
+    quadratic  0.471 0.463 0.496    0.477  0.411 0.403 0.440    0.11 0.16 0.18    44 44 48      42 41 40
+
+The limbs win as often with the Doppler rates (docs/guide/motion.md); the quadratic model's peak
+follows the CPI-centre velocity. Seconds per frame (engine with the two recording syntheses,
+simulate): 0.78 / 0.83 frozen, 3.0-4.7 / 3.7-5.3 quadratic.
 """
 
 from __future__ import annotations
