@@ -55,7 +55,7 @@ import numpy as np
 from .body import MESH_EDGE
 from . import furniture
 from .registry import Parameter, register
-from .room import CEILING_MATERIALS, FLOOR_MATERIALS, WALL_MATERIALS
+from .room import SURFACE_PARAMETERS
 from .vitals import (BREATHING_AMPLITUDE, BREATHING_RATE, HEART_AMPLITUDE, HEART_RATE, PosturalSway, VitalSigns,
                      chest_wall)
 
@@ -87,12 +87,7 @@ _RADAR = {
 _ROOM = {
     "room": Parameter(False, bool, "", "put the person and the radar in a closed room (walls, floor, ceiling)"),
     "room_margin": Parameter(1.0, float, "m", "free space between the scene and the walls", low=0.1, high=20.0),
-    "room_height": Parameter(3.0, float, "m", "inner height of the room", low=2.2, high=20.0),
-    "wall_material": Parameter("concrete", str, "", "ITU material of the walls", choices=WALL_MATERIALS),
-    "floor_material": Parameter("floorboard", str, "", "ITU material of the floor", choices=FLOOR_MATERIALS),
-    "ceiling_material": Parameter("plasterboard", str, "", "ITU material of the ceiling", choices=CEILING_MATERIALS),
-    "wall_scattering": Parameter(0.2, float, "", "diffuse scattering coefficient of walls, floor, ceiling",
-                                 low=0.0, high=1.0),
+    **SURFACE_PARAMETERS,
     **furniture.PARAMETERS,
 }
 _CLIP_TIME = {

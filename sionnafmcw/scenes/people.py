@@ -63,7 +63,7 @@ from .activities import SWAY_DEFAULT, WINDOWS, mocap_person, still_person
 from .body import MESH_EDGE, CircleTrack, LineTrack, WalkingPerson
 from .layout import discs_apart
 from .registry import Parameter, register
-from .room import CEILING_MATERIALS, FLOOR_MATERIALS, WALL_MATERIALS
+from .room import SURFACE_PARAMETERS
 from .vitals import BREATHING_AMPLITUDE, BREATHING_RATE, HEART_AMPLITUDE, HEART_RATE
 
 WALKS = ("walk", "walk_circle")
@@ -131,12 +131,7 @@ PARAMETERS = {
                                      "through (radar_height: level)", low=0.0, high=5.0),
     "room": Parameter(True, bool, "", "put the people and the radar in a closed room"),
     "room_margin": Parameter(1.0, float, "m", "free space between the sector and the walls", low=0.1, high=20.0),
-    "room_height": Parameter(3.0, float, "m", "inner height of the room", low=2.2, high=20.0),
-    "wall_material": Parameter("concrete", str, "", "ITU material of the walls", choices=WALL_MATERIALS),
-    "floor_material": Parameter("floorboard", str, "", "ITU material of the floor", choices=FLOOR_MATERIALS),
-    "ceiling_material": Parameter("plasterboard", str, "", "ITU material of the ceiling", choices=CEILING_MATERIALS),
-    "wall_scattering": Parameter(0.2, float, "", "diffuse scattering coefficient of walls, floor, ceiling",
-                                 low=0.0, high=1.0),
+    **SURFACE_PARAMETERS,
     **furniture_mod.PARAMETERS,
     "num_frames": Parameter(48, int, "", "number of frames", low=1, high=100_000),
     "fps": Parameter(24.0, float, "1/s", "frame rate", low=1.0, high=1000.0),

@@ -17,12 +17,23 @@ from __future__ import annotations
 import numpy as np
 
 from . import meshes
+from .registry import Parameter
 from .writer import AnimationWriter, itu_material
 
 WALL_THICKNESS = 0.1
 WALL_MATERIALS = ("concrete", "plasterboard", "wood", "glass", "chipboard")
 FLOOR_MATERIALS = ("floorboard", "concrete", "wood", "chipboard")
 CEILING_MATERIALS = ("plasterboard", "ceiling_board", "concrete")
+#: The room's builder parameters shared by every builder that puts its scene in a room (height,
+#: ITU materials, diffuse scattering; passed to :func:`add_room`).
+SURFACE_PARAMETERS = {
+    "room_height": Parameter(3.0, float, "m", "inner height of the room", low=2.2, high=20.0),
+    "wall_material": Parameter("concrete", str, "", "ITU material of the walls", choices=WALL_MATERIALS),
+    "floor_material": Parameter("floorboard", str, "", "ITU material of the floor", choices=FLOOR_MATERIALS),
+    "ceiling_material": Parameter("plasterboard", str, "", "ITU material of the ceiling", choices=CEILING_MATERIALS),
+    "wall_scattering": Parameter(0.2, float, "", "diffuse scattering coefficient of walls, floor, ceiling",
+                                 low=0.0, high=1.0),
+}
 
 
 def add_room(writer: AnimationWriter, lo, hi, wall: str = "concrete", floor: str = "floorboard",
@@ -89,4 +100,4 @@ def _cut(name, a, b, holes):
     return [(lo_box, hi_box) for lo_box, hi_box in boxes if np.all(hi_box - lo_box > 1e-9)]
 
 
-__all__ = ["CEILING_MATERIALS", "FLOOR_MATERIALS", "WALL_MATERIALS", "WALL_THICKNESS", "add_room"]
+__all__ = ["CEILING_MATERIALS", "FLOOR_MATERIALS", "SURFACE_PARAMETERS", "WALL_MATERIALS", "WALL_THICKNESS", "add_room"]

@@ -46,7 +46,7 @@ from .keypoints import KEYPOINTS, keypoint_positions, walker_anchors
 from .body import MESH_EDGE, SEGMENTS, CircleTrack, LineTrack, WalkingPerson
 from .gait import RV_MAX
 from .registry import Parameter, register
-from .room import CEILING_MATERIALS, FLOOR_MATERIALS, WALL_MATERIALS, add_room
+from .room import SURFACE_PARAMETERS, add_room
 from .writer import SKIN, AnimationWriter, look_at_orientation, skin_material
 
 _PERSON = {
@@ -63,12 +63,7 @@ _PERSON = {
 _ROOM = {
     "room": Parameter(True, bool, "", "put the walk in a closed room (walls, floor, ceiling)"),
     "room_margin": Parameter(1.0, float, "m", "free space between the walk and the walls", low=0.1, high=20.0),
-    "room_height": Parameter(3.0, float, "m", "inner height of the room", low=2.2, high=20.0),
-    "wall_material": Parameter("concrete", str, "", "ITU material of the walls", choices=WALL_MATERIALS),
-    "floor_material": Parameter("floorboard", str, "", "ITU material of the floor", choices=FLOOR_MATERIALS),
-    "ceiling_material": Parameter("plasterboard", str, "", "ITU material of the ceiling", choices=CEILING_MATERIALS),
-    "wall_scattering": Parameter(0.2, float, "", "diffuse scattering coefficient of walls, floor, ceiling",
-                                 low=0.0, high=1.0),
+    **SURFACE_PARAMETERS,
 }
 
 
