@@ -3,7 +3,7 @@ r"""Data-set generation throughput: items per minute with 1 and with 2 Dask work
 For each worker count W the script starts a ``distributed.LocalCluster`` of W processes (1
 thread each), warms it with one item per worker (process start, imports, first kernel
 compilation: the one-off cost :math:`t_w`), then times :func:`sionnafmcw.dataset.generate` of a
-fresh ``--items``-item data set on the warm cluster (Dr.Jit threads per worker = cores // W).
+fresh ``--items``-item data set on the warm cluster (CPU threads per item = cores // W: simulate's threads).
 It prints items/minute, the ratio to the 1-worker baseline measured in the same process, the
 mean per-item wall time inside a worker and its CPU time (from the index), the scheduler
 overhead per task (:math:`t_s`, from a burst of no-op tasks) and the bytes each item writes

@@ -236,7 +236,7 @@ def relative_radial_velocity(positions, velocities, centre, centre_velocity) -> 
 
 def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progress=True,
              radar_pose=None, seed: int = 0, noise: bool = True, engine_options: dict | None = None,
-             leakage_db: float | None = None, repair: bool = False, wait: float = 0.0):
+             leakage_db: float | None = None, repair: bool = False, wait: float = 0.0, threads: int | None = None):
     """Simulate ``frames`` of ``animation`` and write the run store ``out``; returns it as a :class:`~sionnafmcw.store.Run`.
 
     Parameters
@@ -256,6 +256,8 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     repair : before resuming, read every done frame of an existing store back and mark the unreadable
         ones for recomputation (:func:`sionnafmcw.store.check_run`)
     wait : seconds to wait for another live process writing ``out`` to finish (then resume what it left)
+    threads : CPU threads of the run (default: the cores this process may use); the engine's Dr.Jit pool
+        gets ``threads - 1`` of them and BLAS one while the frames run (:mod:`sionnafmcw.threads`)
 
     Notes
     -----
@@ -268,14 +270,17 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
     """
     with handling_signals():
         return _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise,
-                         engine_options, leakage_db, repair, wait)
+                         engine_options, leakage_db, repair, wait, threads)
 
 
 def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise, engine_options,
-              leakage_db, repair, wait):
+              leakage_db, repair, wait, threads):
     from .animation import Animation, load_animation
+    from .heap import release_free_memory
+    from .threads import check_threads, run_threads
 
     _check_arguments(seed, noise, leakage_db)
+    threads = check_threads(threads, "simulate", SimulationError)
     if not isinstance(animation, Animation):
         animation = load_animation(animation)
     radar = RadarConfig.resolve(radar)
@@ -348,8 +353,10 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         # error) frame n is still written: what was done is kept.
         def finish(f, echoes):
             write(f, synthesise(f, echoes))
+            release_free_memory()   # the arenas' free pages back to the OS (sionnafmcw.heap)
 
-        with ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:
+        with run_threads(threads), \
+                ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:
             pending = None
             try:
                 for f in todo:

@@ -224,6 +224,7 @@ def test_user_errors_are_one_line(capsys, tmp_path, plate_scene, small_radar_fil
          "samples_per_src='1.5' is not an integer"),
         (["simulate", scene, "--radar", small_radar_file, "--out", out, "--engine-option", "max_depth"],
          "write key=value"),
+        (["simulate", scene, "--radar", small_radar_file, "--out", out, "--threads", "0"], "--threads 0: must be"),
         (["plot", str(tmp_path / "missing.zarr"), "--out", tmp_path / "figs"], "no such run store"),
         (["plot", scene, "--out", tmp_path / "figs"], "not a readable run store"),
         (["plot", out, "--out", tmp_path / "figs", "--kind", "polar"], "invalid choice"),

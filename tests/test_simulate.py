@@ -191,3 +191,43 @@ def test_cpi_longer_than_frame_period_is_rejected(tmp_path, radar):
     with pytest.raises(RadarConfigError, match="frame period"):
         simulate(root, radar, engine=fast_engine(), out=tmp_path / "x.zarr", progress=False)
     assert not (tmp_path / "x.zarr").exists()
+
+
+class _ThreadsSeen(PathEngine):
+    """The path engine, recording Dr.Jit's pool size and BLAS's threads while it computes each frame."""
+
+    def _frame_echoes(self, animation, radar, frame, pose):
+        import drjit as dr
+        from threadpoolctl import threadpool_info
+
+        blas = [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+        self.seen = getattr(self, "seen", []) + [(dr.thread_count(), blas)]
+        return super()._frame_echoes(animation, radar, frame, pose)
+
+
+def test_run_threads_set_during_the_run_and_restored(tmp_path, radar):
+    """simulate(threads=N): Dr.Jit's pool at N - 1 (at least 1) and BLAS at 1 while frames run, both as
+    before afterwards; the cube does not depend on the thread counts (bit for bit)."""
+    import drjit as dr
+    from threadpoolctl import threadpool_info
+
+    from sionnafmcw.simulation import SimulationError
+
+    root = write_plate_animation(tmp_path / "plate", distance=3.0, velocity=(1.0, 0, 0), num_frames=2, fps=24.0,
+                                 size=(0.4, 0.4))
+
+    def blas_threads():
+        return [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+
+    before_dr, before_blas = dr.thread_count(), blas_threads()
+    cubes = []
+    for threads, wanted in ((3, 2), (1, 1)):
+        engine = _ThreadsSeen(samples_per_src=20_000)
+        run = simulate(root, radar, engine=engine, out=tmp_path / f"t{threads}.zarr", progress=False, threads=threads)
+        assert engine.seen and all(seen == (wanted, [1] * len(before_blas)) for seen in engine.seen), engine.seen
+        assert dr.thread_count() == before_dr and blas_threads() == before_blas
+        cubes.append(run.iq.values)
+    assert np.array_equal(cubes[0], cubes[1])
+    with pytest.raises(SimulationError, match="threads must be an integer >= 1"):
+        simulate(root, radar, engine=fast_engine(), out=tmp_path / "bad.zarr", progress=False, threads=0)
+    assert not (tmp_path / "bad.zarr").exists()

@@ -38,6 +38,8 @@ def add_parser(add) -> None:
                    help="add direct Tx-Rx coupling at this level (dB); default none")
     p.add_argument("--engine-option", action="append", default=[], metavar="KEY=VALUE",
                    help="engine setting, repeatable (path: samples_per_src, max_depth, diffuse, ...)")
+    p.add_argument("--threads", type=int, default=None, metavar="N",
+                   help="CPU threads of the run (default: this process's cores; the engine's Dr.Jit pool gets N - 1)")
     p.add_argument("--repair", action="store_true",
                    help="check every done frame of an existing store first; recompute the unreadable ones")
     p.set_defaults(func=run)
@@ -83,13 +85,15 @@ def engine_options(engine: str, items) -> dict:
 
 
 def check_numbers(args) -> None:
-    """``--seed`` >= 0, a finite ``--leakage-db``."""
+    """``--seed`` >= 0, a finite ``--leakage-db``, ``--threads`` >= 1."""
     import math
 
     if args.seed < 0:
         raise UserError(f"--seed {args.seed}: must be an integer >= 0")
     if args.leakage_db is not None and not math.isfinite(args.leakage_db):
         raise UserError(f"--leakage-db {args.leakage_db}: must be a finite level in dB (leave it out for no leakage)")
+    if args.threads is not None and args.threads < 1:
+        raise UserError(f"--threads {args.threads}: must be an integer >= 1 (leave it out for every core)")
 
 
 def run(args) -> int:
@@ -113,7 +117,7 @@ def run(args) -> int:
     try:
         run = simulate(animation, radar, engine=args.engine, out=out, frames=frames, progress=not args.quiet,
                        seed=args.seed, noise=not args.no_noise, engine_options=options, leakage_db=args.leakage_db,
-                       repair=args.repair)
+                       repair=args.repair, threads=args.threads)
     except SimulationInterrupted as exc:
         exc.unit = "frames"
         raise

@@ -66,19 +66,6 @@ class DatasetInterrupted(Interrupted):
 
 
 # ===================================================================================== worker side
-_THREADS_SET = None
-
-
-def _set_threads(threads):
-    """Dr.Jit's thread pool size in this worker process (once): ``cores / workers`` on a local cluster."""
-    global _THREADS_SET
-    if threads and _THREADS_SET != threads:
-        from ..sionna_rt import set_thread_count
-
-        set_thread_count(int(threads))
-        _THREADS_SET = threads
-
-
 #: Seconds a task waits for another live process still writing its item's store (a worker of a
 #: previous driver that outlived it) before it fails; it then resumes what that process left.
 ITEM_WAIT = 3600.0
@@ -115,7 +102,6 @@ def run_item(task: dict) -> dict:
         from ..radar import RadarConfig
         from ..simulation import simulate
 
-        _set_threads(task.get("threads"))
         item = task["item"]
         spec = task["spec"]
         folder = Path(task["dir"])
@@ -147,7 +133,7 @@ def run_item(task: dict) -> dict:
         simulate(scene, RadarConfig.from_dict(item["radar"]), engine=spec["engine"], out=store,
                  frames=spec.get("frames"), progress=False, radar_pose=pose, seed=item["noise_seed"],
                  noise=spec.get("noise", True), engine_options=spec.get("engine_options") or {},
-                 wait=task.get("wait", ITEM_WAIT))
+                 wait=task.get("wait", ITEM_WAIT), threads=task.get("threads"))
         state = store_state(store, spec.get("frames"))
         if not state["complete"]:
             raise DatasetError(f"{store}: simulate returned but frames are not all marked done")
@@ -280,8 +266,9 @@ def _partial_labels(store: Path, label_object):
 def _connect(scheduler, workers, n_tasks, cluster_options):
     """``(client, close, threads)``: a new LocalCluster, or a client of an existing scheduler.
 
-    ``threads``: Dr.Jit threads per item, ``cores // workers`` on a local cluster (so the workers
-    do not oversubscribe the cores), None (Dr.Jit's default, all cores) on another cluster."""
+    ``threads``: CPU threads per item (``simulate``'s ``threads``: :mod:`sionnafmcw.threads`),
+    ``cores // workers`` on a local cluster (so the workers do not oversubscribe the cores), None
+    (the worker machine's cores) on another cluster."""
     from distributed import Client, LocalCluster
 
     if scheduler is None:
@@ -349,8 +336,9 @@ def generate(spec, out, scheduler=None, workers: int | None = None, progress: bo
     progress : tqdm bar over items and a summary line on stderr
     retries : Dask retries of a task whose worker died (an exception inside an item is not retried)
     cluster_options : extra ``LocalCluster`` keyword arguments (e.g. ``memory_limit``)
-    item_threads : Dr.Jit threads in each worker; default ``cores // workers`` on the local
-        cluster, Dr.Jit's own default (every core of the worker's machine) with ``scheduler=``
+    item_threads : CPU threads of each item's run (``simulate``'s ``threads``: Dr.Jit gets one fewer,
+        BLAS one, :mod:`sionnafmcw.threads`); default ``cores // workers`` on the local cluster, the
+        worker machine's cores with ``scheduler=``
 
     Notes
     -----

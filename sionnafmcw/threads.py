@@ -1,0 +1,75 @@
+r"""CPU threads of a run: how the engine and the synthesis stage share the machine's cores.
+
+:func:`~sionnafmcw.simulation.simulate` runs two stages at once: the engine computes frame
+:math:`n + 1` on the calling thread while frame :math:`n` is synthesised and written on a worker
+thread (its finufft plans on a pool of their own, :mod:`sionnafmcw.synthesis.nufft`). Each stage
+alone would use every core; together they oversubscribe them, and the threads that wait do not
+sleep at once: OpenBLAS's and Dr.Jit's (nanothread) workers spin for their next task. So a run
+sets, for its duration (:func:`run_threads`; restored afterwards):
+
+* **BLAS: one thread.** The pipeline's BLAS calls are skinny products (points ``[K, 3]`` times a
+  ``3 x 3`` rotation, a few ``[K, 3]`` dot products): memory-bound, no faster on two threads,
+  while the idle OpenBLAS workers spin on the core the synthesis needs.
+* **Dr.Jit: ``threads - 1`` workers (at least one).** The engine's kernels (ray casts, the PO
+  integral, Sionna's trace) are a third of its time; the rest is numpy on the calling thread, so
+  the engine is one core's work plus its kernels, and the synthesis stage keeps one core busy.
+
+Measured on 2 cores (``python benchmarks/run_threads.py``, interleaved, the circle walk's steady
+frames): the module docstring of that benchmark has the figures. ``threads`` defaults to the
+cores this process may run on (:func:`available_cores`); a Dask worker of a data set passes its
+share (``cores // workers``, :mod:`sionnafmcw.dataset.generate`).
+"""
+
+from __future__ import annotations
+
+import os
+from numbers import Integral
+from contextlib import contextmanager
+
+
+def available_cores() -> int:
+    """The cores this process may run on (its CPU affinity where the OS tells it, else ``os.cpu_count()``)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):
+        return max(1, os.cpu_count() or 1)
+
+
+def engine_threads(threads: int) -> int:
+    """Dr.Jit's worker threads for a run of ``threads`` CPU threads: ``threads - 1``, at least 1 (module docstring)."""
+    return max(1, int(threads) - 1)
+
+
+def check_threads(threads, where: str = "simulate", error=ValueError) -> int | None:
+    """``threads`` as an int (None stays None), or ``error`` naming ``where`` and what to pass."""
+    if threads is None:
+        return None
+    if isinstance(threads, bool) or not isinstance(threads, Integral) or threads < 1:
+        raise error(f"{where}: threads must be an integer >= 1 (CPU threads of the run) or None (the "
+                         f"process's cores), got {threads!r}")
+    return int(threads)
+
+
+@contextmanager
+def run_threads(threads: int | None = None):
+    """Within the block: Dr.Jit's pool at :func:`engine_threads` of ``threads`` (default
+    :func:`available_cores`) and BLAS at one thread (module docstring); both restored on exit.
+    Yields the Dr.Jit thread count used."""
+    from threadpoolctl import threadpool_limits
+
+    from .sionna_rt import dr
+
+    threads = available_cores() if threads is None else check_threads(threads, "run_threads")
+    wanted = engine_threads(threads)
+    before = dr.thread_count()
+    if before != wanted:
+        dr.set_thread_count(wanted)
+    try:
+        with threadpool_limits(limits=1, user_api="blas"):
+            yield wanted
+    finally:
+        if dr.thread_count() != before:
+            dr.set_thread_count(before)
+
+
+__all__ = ["available_cores", "check_threads", "engine_threads", "run_threads"]
