@@ -63,19 +63,19 @@ def run_threads(threads: int | None = None):
     Yields the Dr.Jit thread count used."""
     from threadpoolctl import threadpool_limits
 
-    from .sionna_rt import dr
+    from .sionna_rt import dr, set_thread_count
 
     threads = available_cores() if threads is None else check_threads(threads, "run_threads")
     wanted = engine_threads(threads)
     before = dr.thread_count()
     if before != wanted:
-        dr.set_thread_count(wanted)
+        set_thread_count(wanted)
     try:
         with threadpool_limits(limits=1, user_api="blas"):
             yield wanted
     finally:
         if dr.thread_count() != before:
-            dr.set_thread_count(before)
+            set_thread_count(before)
 
 
 __all__ = ["available_cores", "check_threads", "engine_threads", "run_threads"]
