@@ -223,16 +223,21 @@ def mocap_clip(out, clip, reverse, **p):
 
 
 # ============================================================================ still people
-_VITALS = {
+#: A still person's breathing and heartbeat (every builder with still people: these and the people scenario).
+VITAL_SIGN_PARAMETERS = {
     "random_vitals": Parameter(True, bool, "", "draw the rates, amplitudes and phases of breathing and heartbeat "
                                "from seed (uniform within the physiological ranges) instead of the values below"),
-    "seed": Parameter(0, int, "", "seed of the vital signs (random_vitals) and of the sway", low=0, high=2**31 - 1),
     "breathing_rate": Parameter(0.25, float, "Hz", "breathing rate", low=BREATHING_RATE[0], high=BREATHING_RATE[1]),
     "breathing_amplitude": Parameter(0.006, float, "m", "peak-to-peak chest-wall displacement of breathing",
                                      low=BREATHING_AMPLITUDE[0], high=BREATHING_AMPLITUDE[1]),
     "heart_rate": Parameter(1.2, float, "Hz", "heart rate", low=HEART_RATE[0], high=HEART_RATE[1]),
     "heart_amplitude": Parameter(0.0003, float, "m", "peak-to-peak chest-wall displacement of the heartbeat",
                                  low=HEART_AMPLITUDE[0], high=HEART_AMPLITUDE[1]),
+}
+_VITALS = {
+    "random_vitals": VITAL_SIGN_PARAMETERS["random_vitals"],
+    "seed": Parameter(0, int, "", "seed of the vital signs (random_vitals) and of the sway", low=0, high=2**31 - 1),
+    **{k: v for k, v in VITAL_SIGN_PARAMETERS.items() if k != "random_vitals"},
 }
 _STILL_TIME = {
     "num_frames": Parameter(750, int, "", "number of frames (default 30 s)", low=1, high=1_000_000),

@@ -59,12 +59,11 @@ import numpy as np
 
 from . import furniture as furniture_mod
 from ..mocap.library import clip_label
-from .activities import SWAY_DEFAULT, WINDOWS, mocap_person, still_person
+from .activities import SWAY_DEFAULT, VITAL_SIGN_PARAMETERS, WINDOWS, mocap_person, still_person
 from .body import MESH_EDGE, CircleTrack, LineTrack, WalkingPerson
 from .layout import discs_apart
 from .registry import Parameter, register
 from .room import SURFACE_PARAMETERS
-from .vitals import BREATHING_AMPLITUDE, BREATHING_RATE, HEART_AMPLITUDE, HEART_RATE
 
 WALKS = ("walk", "walk_circle")
 STILL = ("stand_still", "vital_signs")
@@ -80,17 +79,6 @@ STILL_FACING = math.radians(30.0)
 
 
 # ============================================================================ parameters
-_VITALS = {
-    "random_vitals": Parameter(True, bool, "", "draw every still person's breathing and heartbeat from seed "
-                               "(uniform within the physiological ranges) instead of the rates below"),
-    "breathing_rate": Parameter(0.25, float, "Hz", "breathing rate of the still people", low=BREATHING_RATE[0],
-                                high=BREATHING_RATE[1]),
-    "breathing_amplitude": Parameter(0.006, float, "m", "peak-to-peak chest-wall displacement of breathing",
-                                     low=BREATHING_AMPLITUDE[0], high=BREATHING_AMPLITUDE[1]),
-    "heart_rate": Parameter(1.2, float, "Hz", "heart rate of the still people", low=HEART_RATE[0], high=HEART_RATE[1]),
-    "heart_amplitude": Parameter(0.0003, float, "m", "peak-to-peak chest-wall displacement of the heartbeat",
-                                 low=HEART_AMPLITUDE[0], high=HEART_AMPLITUDE[1]),
-}
 PARAMETERS = {
     "num_people": Parameter(3, int, "", "number of people", low=1, high=8),
     "activity": Parameter("walk", str, "", "what every person does (mixed: drawn per person among those that "
@@ -120,7 +108,7 @@ PARAMETERS = {
     "time_offset": Parameter(0.0, float, "s", "clip seconds skipped at the start of a motion-capture activity",
                              low=0.0, high=10.0),
     "playback_rate": Parameter(1.0, float, "", "clip seconds per second", low=0.5, high=2.0),
-    **_VITALS,
+    **VITAL_SIGN_PARAMETERS,
     "seed": Parameter(0, int, "", "seed of everything drawn: placements, activities (mixed), statures, builds, vital "
                       "signs, sway", low=0, high=2**31 - 1),
     "skin_scattering": Parameter(0.3, float, "", "diffuse scattering coefficient of the skin", low=0.0, high=1.0),
@@ -241,7 +229,7 @@ def make_person(activity: str, p: dict, height: float, build: str, seed: int, po
         return person, info
     posture = "standing" if activity == "stand_still" else p["posture"]
     still = {**common, "seed": int(rng.integers(2**31)), "random_vitals": p["random_vitals"],
-             **{k: p[k] for k in _VITALS if k != "random_vitals"}, "sway_rms": SWAY_DEFAULT[posture]}
+             **{k: p[k] for k in VITAL_SIGN_PARAMETERS if k != "random_vitals"}, "sway_rms": SWAY_DEFAULT[posture]}
     person, vitals = still_person(still, posture)
     info.update(motion_source=f"posture {posture}; parametric sway, breathing and heartbeat", posture=posture,
                 vital_signs=vitals.to_dict())
