@@ -117,21 +117,23 @@ the 30 s target is not reached: what is left per frame is the PO render and inte
 Sionna's full re-trace of the room (0.06 s) and the synthesis in parallel.
 
 The same A (``/tmp/treeA``: main at fe4d965, its 8 mm scene) against the run's threads set for its
-two stages and the allocator's free pages handed back after every frame (:mod:`sionnafmcw.threads`,
-:mod:`sionnafmcw.heap`; ``--tree-b`` a copy of that tree), seeds 1-3::
+two stages (:mod:`sionnafmcw.threads`) and, as ``make demo``'s entry point does first, one glibc
+arena (:func:`sionnafmcw.heap.limit_arenas`, called by this worker when the tree has it;
+``--tree-b`` a copy of that tree), seeds 1-3::
 
     run      total s   cpu s s/frame first s  steady engine s synth+st adapt geometry    po static trace e_velo peak MiB
-    A mean      43.4    80.5    0.43     1.6    0.39     42.3      1.2   1.1      6.3  25.5    1.0   5.0  0.427     1509
-    B mean      38.6    58.9    0.39     1.3    0.36     37.8      0.8   0.9      1.7  27.9    0.6   5.7  0.461     1421
+    A mean      44.7    82.5    0.45     1.6    0.40     43.5      1.1   1.2      6.6  26.3    1.1   5.2  0.427     1442
+    B mean      36.4    54.6    0.36     1.4    0.34     35.8      0.6   1.0      1.7  25.6    0.7   5.9  0.461     1402
 
-time B/A 0.865 / 0.918 / 0.884 (mean 0.889), CPU B/A 0.713 / 0.753 / 0.731 (mean 0.732), peak memory
-B/A 0.931 / 0.933 / 0.962 (mean 0.942); B's e_velo is the previous B's to the last digit (the threads
-change no sum: ``tests/test_simulate.py`` holds the cube bit for bit). Seeds 4-6, the previous B
-(before the threads and the trim) against A: e_velo A 0.469 / 0.428 / 0.482, B 0.492 / 0.447 /
-0.432; over the six seeds A 0.443 (sd 0.028), B 0.459 (sd 0.021), B - A +0.016 m/s (se 0.015,
-paired t-test p = 0.34): within the seeds' spread. The run now uses 1.5 of the 2 cores
-(58.9 CPU-s in 38.6 s): the engine is the critical path (37.8 of 38.6 s), numpy on the calling
-thread most of it, its kernels a third; the PO stage alone is 0.28 s a frame over the lap.
+time B/A 0.785 / 0.828 / 0.831 (mean 0.814), CPU B/A 0.650 / 0.666 / 0.671 (mean 0.662), peak memory
+B/A 0.973 / 0.969 / 0.973 (mean 0.972). Without the arena limit (the worker before it called
+``limit_arenas``: the library's defaults alone) B took 37.3 s, time B/A 0.809, CPU 0.651, peak
+memory 0.994 / 1.000 / 1.003. B's e_velo is the previous B's to the last digit (the threads change
+no sum: ``tests/test_simulate.py`` holds the cube bit for bit). Seeds 4-6, the previous B (before
+the threads) against A: e_velo A 0.469 / 0.428 / 0.482, B 0.492 / 0.447 / 0.432; over the six seeds
+A 0.443 (sd 0.028), B 0.459 (sd 0.021), B - A +0.016 m/s (se 0.015, paired t-test p = 0.34): within
+the seeds' spread. The run is CPU-bound: 54.6 CPU-s in 36.4 s on 2 cores, so even a perfect overlap
+of the stages leaves some 28 s; the PO stage is 0.26 s a frame over the lap.
 """
 
 from __future__ import annotations
@@ -156,6 +158,12 @@ REPO = Path(__file__).resolve().parents[1]
 # ----------------------------------------------------------------------------- worker (one run)
 def worker(spec: dict) -> dict:
     t0 = time.perf_counter()
+    try:    # what make demo's entry point does first (a tree without sionnafmcw.heap did not)
+        from sionnafmcw.heap import limit_arenas
+    except ImportError:
+        pass
+    else:
+        limit_arenas(1)
     import numpy as np
 
     from sionnafmcw import engines, sionna_rt  # noqa: F401  (Dr.Jit, Mitsuba and Sionna imported here)

@@ -33,10 +33,10 @@ Measured
 --------
 The run's threads (:mod:`sionnafmcw.threads`: an item of a 1-worker cluster on 2 cores runs its
 engine with one Dr.Jit worker and BLAS at one thread, before with two Dr.Jit workers and BLAS at
-two) and the allocator's trim per frame, against main before them (3cca147), each tree from its
-own copy (``PYTHONPATH``), alternated twice, ``--scenario straight_walk --items 4 --frames 4
---workers 1``: t_1 = 10.70 / 10.60 core-s/item before, 10.01 / 9.69 after (0.925 of before; about
-680 and 730 items an hour on the 2 cores); 3.35 MB/item both.
+two) against main before them (3cca147), each tree from its own copy (``PYTHONPATH``), alternated
+twice, ``--scenario straight_walk --items 4 --frames 4 --workers 1``: t_1 = 10.64 / 10.75
+core-s/item before, 9.58 / 9.71 after (0.90 of before; about 670 and 745 items an hour on the 2
+cores); 3.35 MB/item both.
 """
 
 from __future__ import annotations

@@ -1,48 +1,50 @@
-r"""Freed heap memory handed back to the operating system between frames.
+r"""The C heap of a process that simulates: one glibc arena for all its threads.
 
-A run allocates and frees the same large numpy temporaries every frame on two threads (the
-engine's and the synthesis worker's, :func:`~sionnafmcw.simulation.simulate`) and on the finufft
-pool's. glibc's allocator serves each thread from an arena of its own, and after the first large
-``free`` it raises its mmap threshold (up to 32 MiB), so later arrays of that size come from the
-arenas instead of fresh mappings. Freed space inside an arena is kept for reuse, and with arrays
-whose sizes change from frame to frame (the number of PO samples follows the body) the arenas
-fragment: the resident size of the circle walk crept up by 118 MiB over its 100 frames (1343 MiB
-after the first frame, 1461 MiB at the end), flat at 1305 MiB with a single arena
-(``MALLOC_ARENA_MAX=1``). :func:`release_free_memory` calls glibc's ``malloc_trim(0)``, which
-returns the free pages of every arena to the OS (``madvise``); :func:`simulate` calls it on the
-synthesis worker after each frame is written, off the engine's path: 9.6 ms a frame (18.6 ms at
-most) on 2 cores, and the walk's resident size then rose by 18 MiB over the 100 frames (1354 to
-1372 MiB). Peak memory of the whole walk against the code before issue 22: ``benchmarks/circle_walk.py``
-(its docstring: B/A 0.942 over three seeds).
+A run allocates and frees the same large numpy temporaries every frame on several threads (the
+engine's, the synthesis worker's, the finufft pool's, :func:`~sionnafmcw.simulation.simulate`).
+glibc's allocator gives each thread an arena of its own (up to eight per core), and after the
+first large ``free`` it raises its mmap threshold (up to 32 MiB), so arrays of that size then come
+from the arenas rather than from fresh mappings. Every arena keeps its freed space for reuse, and
+with arrays whose sizes change from frame to frame (the number of PO samples follows the body)
+each thread's arena grows to its own high-water mark.
 
-On a C library without ``malloc_trim`` (macOS, musl) it does nothing.
+:func:`limit_arenas` sets glibc's ``M_ARENA_MAX`` to one, so that the threads created afterwards
+share the one heap and its free space. It is process-wide and works only before other threads
+have arenas (a new thread takes a freed arena of an ended thread whatever the limit: set on entering
+:func:`~sionnafmcw.simulation.simulate`, after an earlier run in the same process, it lowered
+nothing, a measurement of this module's first version), so the command line sets it first
+thing (``sionnafmcw``, :func:`~sionnafmcw.cli.main`); a Python program that wants it calls it
+before it starts threads (or sets ``MALLOC_ARENA_MAX=1`` in the environment). Measured on the
+circle walk, 98 steady frames (``python benchmarks/run_resources.py --scene /tmp/cw_quad --frames 98
+--rounds 2``): ``simulate``'s defaults peaked at 1442 MiB and grew by 77-85 MiB over the frames;
+with the limit set first thing (setting ``arena1``) 1321-1324 MiB, growth 11-13 MiB, at the same
+time per frame (0.333-0.354 against 0.340-0.349 s). Handing the free pages back to the OS after
+every frame instead (``malloc_trim(0)``, setting ``trimmed``) gave 1373-1378 MiB but 0.379-0.382 s a
+frame (the next frame faults every page in again), so it is not used.
+
+On a C library without ``mallopt`` (macOS, musl) it does nothing.
 """
 
 from __future__ import annotations
 
 import ctypes
 import ctypes.util
-import functools
+
+#: glibc's ``M_ARENA_MAX`` option of ``mallopt``.
+M_ARENA_MAX = -8
 
 
-@functools.lru_cache(maxsize=1)
-def _malloc_trim():
+def limit_arenas(count: int = 1) -> bool:
+    """At most ``count`` glibc arenas in this process from now on (module docstring); True where the C
+    library took the setting, False where it has no ``mallopt``."""
     name = ctypes.util.find_library("c")
     try:
-        libc = ctypes.CDLL(name or "libc.so.6")
-        trim = libc.malloc_trim
+        mallopt = ctypes.CDLL(name or "libc.so.6").mallopt
     except (OSError, AttributeError):
-        return None
-    trim.argtypes = [ctypes.c_size_t]
-    trim.restype = ctypes.c_int
-    return trim
+        return False
+    mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
+    mallopt.restype = ctypes.c_int
+    return bool(mallopt(M_ARENA_MAX, int(count)))
 
 
-def release_free_memory() -> bool:
-    """Return the allocator's free pages to the OS (glibc ``malloc_trim(0)``); True when some were,
-    False when none were or the C library has no such call (module docstring)."""
-    trim = _malloc_trim()
-    return bool(trim(0)) if trim is not None else False
-
-
-__all__ = ["release_free_memory"]
+__all__ = ["M_ARENA_MAX", "limit_arenas"]

@@ -276,7 +276,6 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
 def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise, engine_options,
               leakage_db, repair, wait, threads):
     from .animation import Animation, load_animation
-    from .heap import release_free_memory
     from .threads import check_threads, run_threads
 
     _check_arguments(seed, noise, leakage_db)
@@ -353,7 +352,6 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         # error) frame n is still written: what was done is kept.
         def finish(f, echoes):
             write(f, synthesise(f, echoes))
-            release_free_memory()   # the arenas' free pages back to the OS (sionnafmcw.heap)
 
         with run_threads(threads), \
                 ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:

@@ -11,18 +11,20 @@ sets, for its duration (:func:`run_threads`; restored afterwards):
   ``3 x 3`` rotation, a few ``[K, 3]`` dot products): memory-bound, no faster on two threads,
   while the idle OpenBLAS workers spin on the core the synthesis needs.
 * **Dr.Jit: ``threads - 1`` workers (at least one).** The engine's kernels (ray casts, the PO
-  integral, Sionna's trace) are a third of its time; the rest is numpy on the calling thread, so
-  the engine is one core's work plus its kernels, and the synthesis stage keeps one core busy.
+  integral, Sionna's trace) alternate with numpy on the calling thread, so the engine is about one
+  core's work, and the synthesis stage keeps the other busy.
 
-Measured on 2 cores (``python benchmarks/run_threads.py``, interleaved, frames 2-61 of the circle
-walk at the path engine's defaults): one BLAS thread takes the wall time to 0.90 and the CPU time
-to 0.90 of what they were; one Dr.Jit worker on top to 0.87 and 0.68; the cubes are identical bit
-for bit. The pixel engine on the same frames: the same wall time with one Dr.Jit worker or two
-(0.409-0.420 against 0.411-0.422 s a frame), 8 % less CPU. A kernel-bound run gains from the
-second worker instead: the path engine with ``static_scene=False`` (the whole room traced and
-rendered every frame) took 1.25-1.31 s a frame with one, 1.17-1.20 s with two; pass
-``threads=cores + 1`` for such runs. ``threads`` defaults to the cores this process may run on
-(:func:`available_cores`); a Dask worker of a data set passes its share (``cores // workers``,
+Measured on 2 cores, interleaved, 98 steady frames of the circle walk at the path engine's
+defaults (``python benchmarks/run_resources.py --scene /tmp/cw_quad --frames 98 --rounds 2``): one
+BLAS thread takes the CPU time to 0.90-0.93 of what it was, one Dr.Jit worker on top to 0.67-0.69,
+and the wall time to 0.86 (the undisturbed round; 0.34 s a frame); the cubes are identical bit for
+bit. The pixel engine (``--engine pixel --frames 30 --settings blas1 default``): the same wall time
+with one Dr.Jit worker as with two (0.984-1.007), 9 % less CPU. A kernel-bound run, the path engine
+with ``static_scene=False`` (the whole room traced and rendered every frame;
+``--engine-options '{"static_scene": false}' --frames 8 --settings blas1 default``): 1-3 % slower
+with one worker, 10 % less CPU; pass ``threads=cores + 1`` where the wall time of such runs is
+what counts. ``threads`` defaults to the cores this process may run on (:func:`available_cores`);
+a Dask worker of a data set passes its share (``cores // workers``,
 :mod:`sionnafmcw.dataset.generate`).
 """
 

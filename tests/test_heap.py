@@ -1,38 +1,60 @@
-"""sionnafmcw.heap: freed arena memory goes back to the OS (glibc), measured on the process's resident size."""
+"""sionnafmcw.heap: after limit_arenas the threads share one glibc arena, counted from glibc's own malloc_info report."""
 
+import subprocess
 import sys
-import threading
+import textwrap
 
-import numpy as np
 import pytest
 
-from sionnafmcw.heap import release_free_memory
+# In a fresh interpreter (only the main arena), N threads alive at once each allocate: glibc gives
+# every one a new arena (up to eight per core); after limit_arenas(1) they share the one there is. The
+# heaps are counted in malloc_info's XML (one <heap nr=...> per arena).
+SCRIPT = textwrap.dedent("""
+    import ctypes, sys, threading
+    import numpy as np
+    from sionnafmcw.heap import limit_arenas
+
+    libc = ctypes.CDLL("libc.so.6")
+    libc.open_memstream.restype = ctypes.c_void_p
+    libc.malloc_info.argtypes = [ctypes.c_int, ctypes.c_void_p]
+    libc.fclose.argtypes = [ctypes.c_void_p]
+
+    def heaps():
+        buf, size = ctypes.c_char_p(), ctypes.c_size_t()
+        stream = libc.open_memstream(ctypes.byref(buf), ctypes.byref(size))
+        libc.malloc_info(0, stream)
+        libc.fclose(stream)
+        return buf.value.decode().count("<heap nr=")
+
+    def allocate_together(n):
+        ready, done, kept = threading.Barrier(n + 1), threading.Event(), []
+        def work():
+            kept.append(np.ones(2**14))      # 128 KiB: from the thread's arena
+            ready.wait()
+            done.wait()
+        threads = [threading.Thread(target=work) for _ in range(n)]
+        for t in threads:
+            t.start()
+        ready.wait()
+        count = heaps()
+        done.set()
+        for t in threads:
+            t.join()
+        return count
+
+    if sys.argv[1] == "one":
+        assert limit_arenas(1)
+    print(allocate_together(4))
+""")
 
 
-def _resident_mib() -> float:
-    with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * 4096 / 2**20
+def _heaps(mode: str) -> int:
+    done = subprocess.run([sys.executable, "-c", SCRIPT, mode], capture_output=True, text=True, check=True)
+    return int(done.stdout.split()[-1])
 
 
-@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's malloc_trim and /proc are Linux's")
-def test_release_free_memory_returns_a_threads_freed_arena_pages():
-    """A worker thread allocates 1 MiB blocks (below glibc's raised mmap threshold: served from its
-    arena), frees every other one so that the arena cannot shrink from its top, and ends; the
-    resident size falls by at least half of what was freed (64 MiB) once the pages are released."""
-    # one large free first: glibc raises its mmap threshold past 1 MiB, as after a run's first frame
-    np.ones(2**21).sum()   # 16 MiB: mmapped, and its free sets the threshold to 16 MiB
-    kept = []
-
-    def work():
-        blocks = [np.ones(2**17) for _ in range(256)]   # 256 x 1 MiB
-        kept.extend(blocks[1::2])                      # half stay alive, interleaved
-        del blocks
-
-    t = threading.Thread(target=work)
-    t.start()
-    t.join()
-    before = _resident_mib()
-    assert release_free_memory() is True
-    after = _resident_mib()
-    assert before - after >= 64, (before, after)
-    assert len(kept) == 128
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="glibc's mallopt and malloc_info")
+def test_limit_arenas_keeps_new_threads_on_one_heap():
+    """Four threads allocating at once: four more arenas without the limit, none with it."""
+    assert _heaps("default") >= 1 + 4
+    assert _heaps("one") == 1

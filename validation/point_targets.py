@@ -5,7 +5,10 @@
 
 import sys
 
-from sionnafmcw.validation.point_targets import main
-
 if __name__ == "__main__":
+    from sionnafmcw.heap import limit_arenas
+
+    limit_arenas(1)   # before any thread: the run's threads share one glibc arena (sionnafmcw.heap)
+    from sionnafmcw.validation.point_targets import main
+
     sys.exit(main())

@@ -74,10 +74,13 @@ def main(argv=None) -> int:
     """Run the command line with ``argv`` (default ``sys.argv[1:]``); returns the exit status.
 
     SIGINT and SIGTERM end any command with one line on stderr and status 130 / 143
-    (:mod:`sionnafmcw.interrupts`); ``simulate`` and ``dataset`` say how far they got.
+    (:mod:`sionnafmcw.interrupts`); ``simulate`` and ``dataset`` say how far they got. The process's
+    threads share one glibc arena (:func:`sionnafmcw.heap.limit_arenas`).
     """
+    from ..heap import limit_arenas
     from ..interrupts import handling_signals
 
+    limit_arenas(1)   # before any thread: a run's threads share one glibc arena (sionnafmcw.heap)
     parser = build_parser()
     with handling_signals():
         try:
