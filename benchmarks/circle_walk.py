@@ -134,6 +134,23 @@ the threads) against A: e_velo A 0.469 / 0.428 / 0.482, B 0.492 / 0.447 / 0.432;
 A 0.443 (sd 0.028), B 0.459 (sd 0.021), B - A +0.016 m/s (se 0.015, paired t-test p = 0.34): within
 the seeds' spread. The run is CPU-bound: 54.6 CPU-s in 36.4 s on 2 cores, so even a perfect overlap
 of the stages leaves some 28 s; the PO stage is 0.26 s a frame over the lap.
+
+The geometry of the hits on the body's refined surfaces in one Dr.Jit kernel
+(``engines/hit_geometry.py``), the PO kernel frozen (``dr.freeze``), the normal gradients per
+triangle, the merge's cell keys column by column, the spheres' test at once, the spherical basis
+without angles, bounce 1's image maps as broadcasts, and the run's stages rebalanced (the synthesis
+on ``threads // 2`` plans, all threads while it is behind, two frames queued:
+:mod:`sionnafmcw.threads`, :data:`sionnafmcw.simulation.PENDING_FRAMES`), same command as above::
+
+    run      total s   cpu s s/frame first s  steady engine s synth+st adapt geometry    po static trace e_velo peak MiB
+    A mean      44.5    82.3    0.45     1.7    0.40     43.4      1.1   1.2      6.5  26.3    1.1   5.2  0.427     1430
+    B mean      29.0    48.2    0.29     1.2    0.25     27.1      1.9   0.8      1.7  17.4    0.5   5.8  0.461     1440
+
+B 28.8 / 29.0 / 29.3 s (seeds 1 / 2 / 3): time B/A 0.640 / 0.666 / 0.651 (mean 0.652), CPU 0.586,
+peak memory 0.998 / 1.016 / 1.008 (A's own peak moves by 40-100 MiB from run to run); e_velo
+0.474 / 0.458 / 0.452, the previous B's to the digit. The surfaces' arrays then became views of the
+kernel's tables (one copy): the run's resident size on the lap, sampled every 50 ms, peaks at
+1296 MiB instead of 1334 (the figure of the closing note of issue 22, stop 27, with the A/B after it).
 """
 
 from __future__ import annotations

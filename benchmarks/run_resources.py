@@ -1,4 +1,5 @@
-r"""CPU threads and C heap of a run (:mod:`sionnafmcw.threads`, :mod:`sionnafmcw.heap`): steady frames under five settings.
+r"""CPU threads, C heap and frame queue of a run (:mod:`sionnafmcw.threads`, :mod:`sionnafmcw.heap`,
+:data:`sionnafmcw.simulation.PENDING_FRAMES`): steady frames under eight settings.
 
 What it measures: ``simulate`` of a scene (default: the ``circle_walk`` scene, built when
 ``--scene`` is not given) with radar ``walk-77ghz`` and engine ``--engine`` (default ``path``,
@@ -20,7 +21,13 @@ under the settings
 * ``arena1``: the defaults in a process that limits glibc to one arena first thing
   (:func:`sionnafmcw.heap.limit_arenas`, as the command line does);
 * ``trimmed``: the defaults with the free pages handed back to the OS after every frame is
-  written (glibc ``malloc_trim(0)``), the alternative measured and not used.
+  written (glibc ``malloc_trim(0)``), the alternative measured and not used;
+* ``synthesis2``: ``arena1`` with the synthesis's finufft pool at every core within the run (as
+  before :func:`sionnafmcw.threads.synthesis_threads`: ``threads // 2``);
+* ``queue1``: ``arena1`` with one frame's echoes waiting for the synthesis stage at most (as before
+  :data:`sionnafmcw.simulation.PENDING_FRAMES` = 2);
+* ``nocatchup``: ``arena1`` with the synthesis at ``threads // 2`` even while it is behind the
+  engine (:func:`sionnafmcw.threads.synthesis_catching_up` a no-op).
 
 Each run is its own subprocess (``--worker``); the settings are interleaved round by round
 (``--rounds``) so that the machine's load hits them alike; ratios are against the first setting of
@@ -51,7 +58,7 @@ import tempfile
 import time
 from pathlib import Path
 
-SETTINGS = ("before", "blas1", "default", "arena1", "trimmed")
+SETTINGS = ("before", "blas1", "default", "arena1", "trimmed", "synthesis2", "queue1", "nocatchup")
 
 
 def _resident_mib() -> float:
@@ -65,7 +72,7 @@ def worker(setting: str, scene: str, frames: int, out: str, engine_name: str, en
 
     import sionnafmcw.heap as heap_module
 
-    if setting == "arena1":
+    if setting in ("arena1", "synthesis2", "queue1", "nocatchup"):
         heap_module.limit_arenas(1)     # as the command line does, before any thread of the run
     import sionnafmcw as sf
     import sionnafmcw.threads as threads_module
@@ -78,6 +85,14 @@ def worker(setting: str, scene: str, frames: int, out: str, engine_name: str, en
         threads_module.run_threads = lambda threads=None: contextlib.nullcontext(None)   # the old behaviour
     elif setting == "blas1":
         threads = available_cores() + 1
+    elif setting == "synthesis2":
+        threads_module.synthesis_threads = lambda threads: available_cores()
+    elif setting == "queue1":
+        import sionnafmcw.simulation as simulation_module
+
+        simulation_module.PENDING_FRAMES = 1
+    elif setting == "nocatchup":
+        threads_module.synthesis_catching_up = lambda active=True: contextlib.nullcontext()
     trim = [0.0, 0]
     if setting == "trimmed":
         malloc_trim = ctypes.CDLL("libc.so.6").malloc_trim

@@ -148,7 +148,7 @@ class Echoes:
         for name in names:
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"Echoes.{name} contains non-finite values")
-        if np.any(self.tau[self.a != 0] < 0):
+        if np.any((self.tau < 0) & (self.a != 0)):
             raise ValueError("Echoes.tau must be >= 0 for every contribution with non-zero gain")
         if self.labels is not None:
             labels = np.asarray(self.labels)

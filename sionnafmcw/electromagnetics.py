@@ -98,9 +98,18 @@ def spherical_basis(k) -> tuple[np.ndarray, np.ndarray]:
 
     the basis in which Sionna RT writes the transverse field travelling along :math:`\hat{\mathbf k}`.
     """
-    theta = np.arccos(np.clip(k[..., 2], -1.0, 1.0))
-    phi = np.arctan2(k[..., 1], k[..., 0])
-    ct, st, cp, sp = np.cos(theta), np.sin(theta), np.cos(phi), np.sin(phi)
+    # the cosines and sines without the angles: cos(theta) = k_z, sin(theta) = sqrt(1 - k_z^2),
+    # (cos, sin)(phi) = (k_x, k_y)/rho with rho = |(k_x, k_y)|; on the z axis (rho = 0) atan2's phi
+    # (0, or pi for k_x = -0) from the angle itself
+    ct = np.clip(k[..., 2], -1.0, 1.0)
+    st = np.sqrt(1.0 - ct * ct)
+    rho = np.hypot(k[..., 0], k[..., 1])
+    axis = rho == 0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cp, sp = np.asarray(k[..., 0] / rho), np.asarray(k[..., 1] / rho)
+    if np.any(axis):
+        phi = np.arctan2(k[..., 1][axis], k[..., 0][axis])
+        cp[axis], sp[axis] = np.cos(phi), np.sin(phi)
     theta_hat = np.stack([ct * cp, ct * sp, -st], axis=-1)
     phi_hat = np.stack([-sp, cp, np.zeros_like(sp)], axis=-1)
     return theta_hat, phi_hat

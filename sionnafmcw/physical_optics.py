@@ -550,6 +550,43 @@ def in_sample_factor(k: float, edges, s_t, r_t, cos_t, s_r, r_r, cos_r, curvatur
     return footprint_factor(k, a, b, *h)
 
 
+def normal_gradient_tensors(corners, corner_normals) -> np.ndarray:
+    r"""Per triangle the tensor :math:`\mathbf T = \mathbf N(\mathbf E^T\mathbf E)^{-1}\mathbf E^T
+    = \Delta\mathbf n_1\mathbf f_1^T + \Delta\mathbf n_2\mathbf f_2^T` (``[F, 3, 3]``) of
+    :func:`interpolated_normals`: ``corners [F, 3, 3]`` (vertices), ``corner_normals [F, 3, 3]``,
+    :math:`\Delta\mathbf n_a` the corner-normal differences, :math:`\mathbf f_a` the dual basis of the
+    triangle's plane (:math:`\mathbf f_a\cdot\mathbf e_b = \delta_{ab}`, :math:`\mathbf e_a = \mathbf v_a - \mathbf v_0`);
+    zero for a degenerate triangle. It depends on the triangle alone, so a surface computes it once
+    (:meth:`~sionnafmcw.engines.surfaces.Surface.normal_gradients`) and every hit on the triangle takes
+    its shape operator from it (:func:`shape_operator`)."""
+    v = np.asarray(corners, float)
+    nc = np.asarray(corner_normals, float)
+    e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
+    g11, g22, g12 = _dot(e1, e1), _dot(e2, e2), _dot(e1, e2)
+    det = g11 * g22 - g12 * g12
+    det = np.where(det > 0, det, np.inf)                              # degenerate triangle: K = 0
+    # the rows of (E^T E)^-1 E^T: the dual basis f_a of the triangle's plane, f_a . e_b = delta_ab
+    f1 = (g22[:, None] * e1 - g12[:, None] * e2) / det[:, None]
+    f2 = (g11[:, None] * e2 - g12[:, None] * e1) / det[:, None]
+    return (nc[:, 1] - nc[:, 0])[:, :, None] * f1[:, None, :] + (nc[:, 2] - nc[:, 0])[:, :, None] * f2[:, None, :]
+
+
+def shape_operator(corner_normals, tensors, barycentric) -> tuple[np.ndarray, np.ndarray]:
+    r"""The interpolated normal :math:`\hat{\mathbf n} = \mathbf m/|\mathbf m|` and its shape operator
+    :math:`\mathbf K = (\mathbf I - \hat{\mathbf n}\hat{\mathbf n}^T)\mathbf T/|\mathbf m|` at hits
+    (:func:`interpolated_normals`), from each hit's triangle's ``corner_normals [P, 3, 3]`` and
+    :func:`normal_gradient_tensors` ``tensors [P, 3, 3]``, ``barycentric [P, 2]``.
+    Returns ``(normal [P, 3], curvature [P, 3, 3])``."""
+    nc = np.asarray(corner_normals, float)
+    t = np.asarray(tensors, float)
+    b = np.asarray(barycentric, float)
+    m = nc[:, 0] + b[:, :1] * (nc[:, 1] - nc[:, 0]) + b[:, 1:] * (nc[:, 2] - nc[:, 0])
+    length = np.linalg.norm(m, axis=-1)
+    normal = m / length[:, None]
+    projected = t - normal[:, :, None] * np.einsum("pi,pij->pj", normal, t)[:, None, :]
+    return normal, projected / length[:, None, None]
+
+
 def interpolated_normals(corners, corner_normals, barycentric) -> tuple[np.ndarray, np.ndarray]:
     r"""Shading normal and its shape operator at points of triangles (Mitsuba's interpolated normal).
 
@@ -561,27 +598,10 @@ def interpolated_normals(corners, corner_normals, barycentric) -> tuple[np.ndarr
     plane moves the barycentrics by :math:`(\mathbf E^T\mathbf E)^{-1}\mathbf E^Td\mathbf x`, so
     :math:`\mathbf K = \partial\hat{\mathbf n}/\partial\mathbf x = (\mathbf I - \hat{\mathbf n}\hat{\mathbf n}^T)
     \mathbf N(\mathbf E^T\mathbf E)^{-1}\mathbf E^T/|\mathbf m|` (``[P, 3, 3]``; :math:`\mathbf I/\rho`
-    on the tangent plane of a sphere of radius :math:`\rho` with outward normals).
+    on the tangent plane of a sphere of radius :math:`\rho` with outward normals): the triangle's
+    :func:`normal_gradient_tensors` through :func:`shape_operator`.
     Returns ``(normal [P, 3], curvature [P, 3, 3])``."""
-    v = np.asarray(corners, float)
-    nc = np.asarray(corner_normals, float)
-    b = np.asarray(barycentric, float)
-    m = nc[:, 0] + b[:, :1] * (nc[:, 1] - nc[:, 0]) + b[:, 1:] * (nc[:, 2] - nc[:, 0])
-    length = np.linalg.norm(m, axis=-1)
-    normal = m / length[:, None]
-    e1, e2 = v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]
-    g11, g22, g12 = _dot(e1, e1), _dot(e2, e2), _dot(e1, e2)
-    det = g11 * g22 - g12 * g12
-    det = np.where(det > 0, det, np.inf)                              # degenerate triangle: K = 0
-    # the rows of (E^T E)^-1 E^T: the dual basis f_a of the triangle's plane, f_a . e_b = delta_ab
-    f1 = (g22[:, None] * e1 - g12[:, None] * e2) / det[:, None]
-    f2 = (g11[:, None] * e2 - g12[:, None] * e1) / det[:, None]
-    # K = (I - n n^T) (dn_1 f_1^T + dn_2 f_2^T) / |m|, dn_a the corner-normal differences
-    out = np.zeros((len(v), 3, 3))
-    for dn, f in ((nc[:, 1] - nc[:, 0], f1), (nc[:, 2] - nc[:, 0], f2)):
-        dn = (dn - _dot(normal, dn)[:, None] * normal) / length[:, None]
-        out += dn[:, :, None] * f[:, None, :]
-    return normal, out
+    return shape_operator(corner_normals, normal_gradient_tensors(corners, corner_normals), barycentric)
 
 
 def po_gains(samples: SurfaceSamples, tx_positions, rx_positions, wavelength: float, tx_gain=None, rx_gain=None,
@@ -666,6 +686,6 @@ def monostatic_rcs(samples: SurfaceSamples, radar_point, wavelength: float, refe
 __all__ = ["ElementGeometry", "MAX_QUADRATIC_PHASE", "PhysicalOpticsError",
            "SurfaceSamples", "angular_grid_steps", "channel", "coherent_reflection", "element_gains",
            "element_positions", "footprint_edges", "footprint_error_bound", "footprint_factor", "in_sample_factor",
-           "interpolated_normals", "monostatic_rcs", "normal_incidence_reflection",
+           "interpolated_normals", "monostatic_rcs", "normal_gradient_tensors", "shape_operator", "normal_incidence_reflection",
            "oriented_normals", "po_echoes", "po_gains", "render_resolution", "render_samples",
            "sinc_and_derivatives"]

@@ -12,15 +12,17 @@ receding; relative to the phase centre's own motion when the radar moves,
 :func:`relative_radial_velocity`), and for a scene with people (the manifest's ``people`` entry)
 every person's keypoints and activity (:mod:`sionnafmcw.store`). The synthesis and the store write
 of frame :math:`n` run on one worker thread while
-the engine computes frame :math:`n + 1`; frames are written in order, each once its cube is
-complete (a signal stops the main thread; the write under way finishes first). Memory is
-bounded by one frame's echoes and one frame's synthesis, and checked against the memory
-available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
+the engine computes the next frames, up to :data:`PENDING_FRAMES` frames ahead; frames are written
+in order, each once its cube is complete (a signal stops the main thread; the write under way
+finishes first, the frames queued behind it are left to a resume). Memory is bounded by the echoes of the frames queued and one frame's synthesis; the
+synthesis is checked against the memory available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
 valid and the same call resumes it (see :func:`simulate`).
 """
 
 from __future__ import annotations
 
+import threading
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -136,6 +138,15 @@ def _check_ranges(animation, radar, poses, indices, names) -> dict:
             f"wrong range: raise the radar's sample rate fs or lower its slope (or move the radar closer)")
     return positions
 
+
+#: Frames whose echoes may wait for the synthesis stage while the engine computes the next one. The
+#: stages take about as long as each other on the walk (2 cores: engine 0.25-0.30 s a frame, the
+#: synthesis and write 0.22-0.36 s, the second half of the lap heavier), so with one frame queued
+#: the engine waited whenever a frame's synthesis ran long (4-5 s of a 33 s run); with two, a short
+#: one catches up and the synthesis can tell that it is behind (:func:`~sionnafmcw.threads.synthesis_catching_up`).
+#: ``benchmarks/run_resources.py --settings arena1 queue1``: one place makes the run 1.04 times as
+#: long; each queued frame holds its echoes (tens of MB for the walk).
+PENDING_FRAMES = 2
 
 #: Bytes per cube sample while one frame is synthesised and written: the complex128 sum (16), the
 #: complex128 noise (16), the complex64 cube (8) and Zarr's encoded copy of it (8).
@@ -276,7 +287,7 @@ def simulate(animation, radar, engine="path", out="run.zarr", frames=None, progr
 def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed, noise, engine_options,
               leakage_db, repair, wait, threads):
     from .animation import Animation, load_animation
-    from .threads import check_threads, run_threads
+    from .threads import check_threads, run_threads, synthesis_catching_up
 
     _check_arguments(seed, noise, leakage_db)
     threads = check_threads(threads, "simulate", SimulationError)
@@ -345,34 +356,51 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             if bar is not None:
                 bar.update(1)
 
-        # frame n is synthesised and written on a worker thread while the engine computes frame
-        # n + 1 (numpy, finufft and the store release the GIL). One worker: frames are written in
+        # frame n is synthesised and written on a worker thread while the engine computes the next
+        # frames (numpy, finufft and the store release the GIL). One worker: frames are written in
         # order, each once its cube is complete, so the store and its crash safety are as without
-        # the overlap; at most one frame waits (memory). When the engine stops (an interrupt, an
-        # error) frame n is still written: what was done is kept.
+        # the overlap; at most PENDING_FRAMES frames wait (memory). When the engine stops (an
+        # interrupt, an error) the frame being synthesised is still written: what was done is kept.
+        # A frame whose synthesis starts while the echoes of a later frame are ready (queued, or in
+        # the engine's hands waiting for a place in the queue) is synthesised on all the run's
+        # threads: the synthesis is behind the engine (sionnafmcw.threads).
+        ready = [0]
+        queue_lock = threading.Lock()
+
         def finish(f, echoes):
-            write(f, synthesise(f, echoes))
+            with queue_lock:
+                ready[0] -= 1
+                behind = ready[0] > 0
+            with synthesis_catching_up(behind):
+                cube = synthesise(f, echoes)
+            write(f, cube)
 
         with run_threads(threads), \
                 ThreadPoolExecutor(max_workers=1, thread_name_prefix="sionnafmcw-synthesis") as pool:
-            pending = None
+            pending = deque()
             try:
                 for f in todo:
                     echoes = engine_obj.echoes(animation, radar, f, radar_pose=poses[f])
-                    if pending is not None:
-                        done, pending = pending, None
-                        done.result()
-                    pending = pool.submit(finish, f, echoes)
+                    with queue_lock:
+                        ready[0] += 1
+                    while len(pending) >= PENDING_FRAMES:
+                        pending.popleft().result()
+                    pending.append(pool.submit(finish, f, echoes))
                     del echoes
-                if pending is not None:
-                    done, pending = pending, None
-                    done.result()
-            except BaseException:
-                if pending is not None:
-                    done, pending = pending, None
+                while pending:
+                    pending.popleft().result()
+            except BaseException as exc:
+                # an engine error: every frame whose echoes were computed is still written. An
+                # interrupt: the frame being synthesised is finished and written, the ones queued
+                # behind it are dropped (not started: a resume computes them), so that what it leaves
+                # does not depend on how far the engine had run ahead
+                if is_interrupt(exc) or received() is not None:
+                    for future in pending:
+                        future.cancel()
+                while pending:
                     try:
-                        done.result()
-                    except BaseException:  # noqa: BLE001  (the first failure is the one to report)
+                        pending.popleft().result()
+                    except BaseException:  # noqa: BLE001  (the first failure is the one to report; a cancelled frame)
                         pass
                 raise
     except BaseException as exc:

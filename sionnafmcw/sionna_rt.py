@@ -355,11 +355,12 @@ def aligned_float(values) -> "mi.Float":
     kernel (``align 1`` vs ``align 64``): inputs with varying alignment would give the same
     ray cast a new kernel hash (a recompilation) from frame to frame.
     """
-    return mi.Float(_aligned_copy(values, np.float32))
+    return mi.Float(aligned_copy(values, np.float32))
 
 
-def _aligned_copy(values, dtype) -> np.ndarray:
-    """A flat copy of ``values`` as ``dtype`` whose first element is 64-byte aligned."""
+def aligned_copy(values, dtype) -> np.ndarray:
+    """A flat copy of ``values`` as ``dtype`` whose first element is 64-byte aligned (what Dr.Jit's LLVM
+    backend maps without a copy: a Dr.Jit array made from it and the numpy array share memory)."""
     values = np.asarray(values, dtype=dtype).ravel()
     buffer = np.empty(values.size + 64 // np.dtype(dtype).itemsize, dtype=dtype)
     start = (-buffer.ctypes.data % 64) // buffer.itemsize
@@ -380,7 +381,7 @@ def array_backend():
 def aligned_float64(values, backend=None):
     """``values`` as a Dr.Jit ``Float64`` of ``backend`` (default :func:`array_backend`) from a
     64-byte aligned float64 copy (see :func:`aligned_float`: the alignment is compiled into kernels)."""
-    return (backend or array_backend()).Float64(_aligned_copy(values, np.float64))
+    return (backend or array_backend()).Float64(aligned_copy(values, np.float64))
 
 
 def cast_rays(scene, origins, directions, shading_normals: bool = False) -> tuple:
@@ -461,7 +462,7 @@ __all__ = [
     "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
     "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
     "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
-    "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_float", "aligned_float64", "antenna_pattern_registry",
+    "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_copy", "aligned_float", "aligned_float64", "antenna_pattern_registry",
     "array_backend", "cast_rays", "cast_scene", "check_versions", "dr", "drjit_element_gain", "installed_versions",
     "load_scene_at", "sionna_antenna_pattern",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",

@@ -173,7 +173,7 @@ normals instead, the PN normals are 1.4-6.7 degrees off (pelvis to forearm, 32 m
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -398,15 +398,17 @@ class PNTriangles:
     flat: np.ndarray
     edges: _Edges
     vertex_of_input: np.ndarray
+    _offsets: np.ndarray | None = field(default=None, repr=False)   # control[:, 1:] - control[:, :1], once
 
     def position(self, face, weights) -> np.ndarray:
         """Points ``[K, 3]`` of the surface at barycentric ``weights [K, 3]`` (w0, w1, w2) of ``face [K]``."""
         face = np.asarray(face, np.int64)
         w = np.asarray(weights, float)
         b = _basis(w, _CUBIC, _CUBIC_COEF)
-        c = self.control[face]
         # offsets from the first corner: a plane's points keep its coordinate exactly (axis-aligned walls)
-        out = c[:, 0] + np.einsum("kc,kci->ki", b[:, 1:], c[:, 1:] - c[:, :1])
+        if self._offsets is None:
+            self._offsets = self.control[:, 1:] - self.control[:, :1]
+        out = self.control[face, 0] + np.einsum("kc,kci->ki", b[:, 1:], self._offsets[face])
         flat = self.flat[face]
         if np.any(flat):
             tri = self.points[self.faces[face[flat]]]

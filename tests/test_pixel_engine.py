@@ -108,6 +108,30 @@ def test_slab_coefficients_match_sionna(eta, thickness):
     assert np.all(np.abs(r_tm.numpy() - tm) <= tol)
 
 
+def test_spherical_basis_is_the_angles_basis():
+    """theta_hat = [cos t cos p, cos t sin p, -sin t], phi_hat = [-sin p, cos p, 0] with t = arccos k_z and
+    p = atan2(k_y, k_x), computed from the components without the angles: the same vectors to rounding,
+    on the z axis too (p = 0, or pi for k_x = -0, as atan2 gives), for any leading shape."""
+    from sionnafmcw.electromagnetics import spherical_basis
+
+    rng = np.random.default_rng(5)
+    k = rng.normal(size=(5000, 3))
+    k /= np.linalg.norm(k, axis=-1, keepdims=True)
+    k[:4] = [[0.0, 0.0, 1.0], [0.0, 0.0, -1.0], [-0.0, 0.0, 1.0], [0.0, -0.0, -1.0]]
+    t, p = np.arccos(np.clip(k[:, 2], -1, 1)), np.arctan2(k[:, 1], k[:, 0])
+    theta_hat = np.stack([np.cos(t) * np.cos(p), np.cos(t) * np.sin(p), -np.sin(t)], axis=-1)
+    phi_hat = np.stack([-np.sin(p), np.cos(p), np.zeros_like(p)], axis=-1)
+    got_theta, got_phi = spherical_basis(k)
+    assert np.max(np.abs(got_theta - theta_hat)) < 1e-12 and np.max(np.abs(got_phi - phi_hat)) < 1e-12
+    # away from the poles (where sin t = sqrt(1 - k_z^2) loses digits) to rounding
+    assert np.max(np.abs(got_theta - theta_hat)[np.abs(k[:, 2]) < 0.999]) < 1e-14
+    for i in (0, 2, 3, 10):                                          # one vector at a time
+        one = spherical_basis(k[i])
+        np.testing.assert_allclose(one[0], got_theta[i], atol=1e-15)
+        np.testing.assert_allclose(one[1], got_phi[i], atol=1e-15)
+    np.testing.assert_allclose(spherical_basis(k.reshape(50, 100, 3))[0].reshape(-1, 3), got_theta, atol=0)
+
+
 # ------------------------------------------------------------------------------- geometry, range and Doppler
 def test_plate_ranges_and_doppler_per_pixel(tmp_path):
     """Plate (0.6 m, diffuse) at 4 m receding at 1.5 m/s: in frame 1 (plate moved to 4.15 m through the

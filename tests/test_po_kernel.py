@@ -110,20 +110,31 @@ def test_kernel_evaluates_board_and_measured_patterns_as_numpy(renders, tmp_path
 
 
 def test_kernel_is_compiled_once_and_repeatable(renders):
-    """A second render of another size runs the kernels already compiled; the same input gives the
-    same output bit for bit (no reductions: one lane per output element)."""
+    """A second render of another size runs the kernels already compiled (the frozen recording replayed
+    with the new sizes, element positions and rotation: the numpy reference's contributions for
+    those); the same input gives the same output bit for bit (no reductions: one lane per output
+    element); a single sample (the width of the opaque scalars, traced without the recording) too."""
     bounces, tx, rx, rot = renders
     element_pair_po(bounces[0], tx, rx, rot, LAMBDA, "tr38901")
     element_pair_po(bounces[1], tx, rx, rot, LAMBDA, "tr38901")
     smaller = bounces[0].select(np.arange(bounces[0].num_samples // 3))
     moved = tx + [0.0, 0.0, 0.01]                                   # another pose: opaque, not baked in
+    few = bounces[1].select(np.arange(7))
     with track_kernels(True, set()) as counts:
         first = element_pair_po(smaller, moved, rx, rot, LAMBDA, "tr38901")
-        element_pair_po(bounces[1].select(np.arange(7)), moved, rx, rot.T, LAMBDA, "tr38901")
+        turned = element_pair_po(few, moved, rx, rot.T, LAMBDA, "tr38901")
     assert counts.launched > 0 and counts.compiled == 0
+    for bounce, rotation, got in ((smaller, rot, first), (few, rot.T, turned)):
+        want = reference(bounce, moved, rx, rotation, "tr38901")
+        assert np.max(np.abs(got[0] - want[0])) <= 1e-12 * np.max(np.abs(want[0]))
+        assert np.max(np.abs(got[1] - want[1])) <= 1e-12 * np.max(want[1])
     again = element_pair_po(smaller, moved, rx, rot, LAMBDA, "tr38901")
     for x, y in zip(first, again):
         np.testing.assert_array_equal(x, y)
+    one = bounces[0].select(np.arange(1))
+    a1, _, _ = element_pair_po(one, tx, rx, rot, LAMBDA, "tr38901")
+    a0, _, _ = reference(one, tx, rx, rot, "tr38901")
+    assert np.max(np.abs(a1 - a0)) <= 1e-12 * np.max(np.abs(a0))
 
 
 def test_kernel_bad_input(renders):
@@ -148,3 +159,28 @@ def test_chunks_give_the_same_contributions(renders, monkeypatch):
     chunked = element_pair_po(bounces[1], tx, rx, rot, LAMBDA, "tr38901")
     for x, y in zip(whole, chunked):
         np.testing.assert_array_equal(x, y)
+
+
+def test_kernel_from_several_threads_at_once(renders):
+    """Threaded Dask workers share a process: element_pair_po called from three threads at once (the
+    frozen recording taken one thread at a time) gives every thread the single-threaded contributions,
+    bit for bit."""
+    import threading
+
+    bounces, tx, rx, rot = renders
+    want = [element_pair_po(b, tx, rx, rot, LAMBDA, "tr38901")[0] for b in bounces]
+    wrong = []
+
+    def work(seed):
+        rng = np.random.default_rng(seed)
+        for _ in range(12):
+            k = int(rng.integers(len(bounces)))
+            if not np.array_equal(element_pair_po(bounces[k], tx, rx, rot, LAMBDA, "tr38901")[0], want[k]):
+                wrong.append(k)
+
+    threads = [threading.Thread(target=work, args=(seed,)) for seed in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert wrong == []

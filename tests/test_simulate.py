@@ -200,14 +200,17 @@ class _ThreadsSeen(PathEngine):
         import drjit as dr
         from threadpoolctl import threadpool_info
 
+        from sionnafmcw.threads import synthesis_pool
+
         blas = [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
-        self.seen = getattr(self, "seen", []) + [(dr.thread_count(), blas)]
+        self.seen = getattr(self, "seen", []) + [(dr.thread_count(), blas, synthesis_pool())]
         return super()._frame_echoes(animation, radar, frame, pose)
 
 
 def test_run_threads_set_during_the_run_and_restored(tmp_path, radar):
-    """simulate(threads=N): Dr.Jit's pool at N - 1 (at least 1) and BLAS at 1 while frames run, both as
-    before afterwards; the cube does not depend on the thread counts (bit for bit)."""
+    """simulate(threads=N): Dr.Jit's pool at N - 1 (at least 1), BLAS at 1 and the synthesis pool at N // 2
+    (at least 1) while frames run, all as before afterwards; the cube does not depend on the thread
+    counts (bit for bit)."""
     import drjit as dr
     from threadpoolctl import threadpool_info
 
@@ -219,15 +222,55 @@ def test_run_threads_set_during_the_run_and_restored(tmp_path, radar):
     def blas_threads():
         return [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
 
+    from sionnafmcw.threads import available_cores, synthesis_pool
+
     before_dr, before_blas = dr.thread_count(), blas_threads()
+    assert synthesis_pool() == available_cores()
     cubes = []
-    for threads, wanted in ((3, 2), (1, 1)):
+    for threads, wanted, synthesis in ((4, 3, 2), (1, 1, 1)):
         engine = _ThreadsSeen(samples_per_src=20_000)
         run = simulate(root, radar, engine=engine, out=tmp_path / f"t{threads}.zarr", progress=False, threads=threads)
-        assert engine.seen and all(seen == (wanted, [1] * len(before_blas)) for seen in engine.seen), engine.seen
+        assert engine.seen and all(seen == (wanted, [1] * len(before_blas), synthesis) for seen in engine.seen), \
+            engine.seen
         assert dr.thread_count() == before_dr and blas_threads() == before_blas
+        assert synthesis_pool() == available_cores()
         cubes.append(run.iq.values)
     assert np.array_equal(cubes[0], cubes[1])
     with pytest.raises(SimulationError, match="threads must be an integer >= 1"):
         simulate(root, radar, engine=fast_engine(), out=tmp_path / "bad.zarr", progress=False, threads=0)
     assert not (tmp_path / "bad.zarr").exists()
+
+
+def test_synthesis_takes_every_thread_while_it_is_behind(tmp_path, radar, monkeypatch):
+    """A synthesis slower than the engine (each frame's held 0.3 s): the first frame is synthesised on
+    the run's share (threads // 2), the frames started while a later frame's echoes were already ready
+    on all the run's threads (sionnafmcw.threads.synthesis_catching_up), the last one (nothing behind
+    it) on the share again; at most PENDING_FRAMES frames' echoes wait; the cubes are the unhurried
+    run's, bit for bit."""
+    import time
+
+    import sionnafmcw.simulation as simulation
+    from sionnafmcw.threads import synthesis_pool
+
+    root = write_plate_animation(tmp_path / "plate", distance=3.0, velocity=(1.0, 0, 0), num_frames=5, fps=24.0,
+                                 size=(0.4, 0.4))
+    reference = simulate(root, radar, engine=fast_engine(), out=tmp_path / "ref.zarr", progress=False, threads=4)
+    real, seen, waiting = simulation.synthesize, [], []
+
+    def slow(echoes, *args, **kwargs):
+        seen.append(synthesis_pool())
+        time.sleep(0.3)
+        return real(echoes, *args, **kwargs)
+
+    class Counting(PathEngine):
+        def _frame_echoes(self, animation, radar_, frame, pose):
+            waiting.append(len(seen))          # frames whose synthesis has started when this one is computed
+            return super()._frame_echoes(animation, radar_, frame, pose)
+
+    monkeypatch.setattr(simulation, "synthesize", slow)
+    run = simulate(root, radar, engine=Counting(samples_per_src=20_000), out=tmp_path / "slow.zarr", progress=False,
+                   threads=4)
+    assert len(seen) == 5 and seen[0] == 2 and seen[1:4] == [4, 4, 4] and seen[4] == 2, seen
+    # the engine ran at most PENDING_FRAMES frames ahead of the synthesis
+    assert all(frame - started <= simulation.PENDING_FRAMES for frame, started in enumerate(waiting)), waiting
+    np.testing.assert_array_equal(run.iq.values, reference.iq.values)

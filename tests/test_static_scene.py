@@ -133,3 +133,25 @@ def test_spheres_meet_segments():
     assert s.meet(o, k, length).tolist() == [False, True, False, True, False]
     behind = Spheres(np.array([[-5.0, 0.0, 0.0]]), np.array([1.0]))
     assert not behind.meet(o[:1], k[:1], np.array([np.inf]))[0]
+
+
+def test_spheres_meet_all_spheres_at_once_as_one_by_one():
+    """Several spheres (a body's parts, metres from the origin) tested at once against all segments:
+    the same answer as each sphere's own closed-form test (``_meet_one``) or-ed over the spheres,
+    for segments that end short, pass through, graze or miss, finite and unbounded."""
+    from sionnafmcw.engines.static_scene import _meet_one
+
+    rng = np.random.default_rng(3)
+    centres = rng.normal(size=(13, 3)) * 0.3 + [3.0, 1.5, 1.0]
+    radii = rng.uniform(0.05, 0.25, 13)
+    origins = rng.uniform(-1.0, 6.0, (20_000, 3))
+    k = centres[rng.integers(0, 13, 20_000)] + rng.normal(size=(20_000, 3)) * 0.3 - origins
+    k /= np.linalg.norm(k, axis=-1, keepdims=True)
+    length = rng.uniform(0.0, 8.0, 20_000)
+    length[::5] = np.inf
+    one_by_one = np.zeros(20_000, dtype=bool)
+    for c, r in zip(centres, radii):
+        one_by_one |= _meet_one(origins, k, length, c, r)
+    got = Spheres(centres, radii).meet(origins, k, length)
+    assert 2_000 < one_by_one.sum() < 18_000                        # both answers well represented
+    np.testing.assert_array_equal(got, one_by_one)

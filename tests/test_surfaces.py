@@ -170,3 +170,39 @@ def test_given_vertex_normals_are_used_where_the_surface_is_smooth():
     exact /= np.linalg.norm(exact, axis=1, keepdims=True)
     ellipsoid = Surface.build("e", "rigid", v, f, exact)
     np.testing.assert_allclose(ellipsoid.corner_normals, exact[f], atol=1e-12)
+
+
+def test_refined_hits_in_one_kernel_as_per_object(rigid_scene):
+    """Hits on refined rigid surfaces, turned, moved and spinning (frame 2): the kernel of
+    engines.hit_geometry gives the point and normal of the smooth surface, the sub-facet's shape
+    operator and the velocity v_c + w x (x - c) that SceneObject.hit_geometry gives per object, to
+    float64 rounding (the box's faces are flat patches of its refined surface: the plane branch);
+    the room's flat static walls stay on the per-object path."""
+    from sionnafmcw.engines.hit_geometry import refined_hit_geometry
+
+    anim, scene, loaded, _, shapes = rigid_scene
+    world = SurfaceWorld.build(anim, list(scene.objects), wavelength=WAVELENGTH)
+    _place(anim, scene, loaded, world, 2)
+    metal = Material("metal", -1j * 1e9, 0.0, 0.0)
+    objects = scene_objects(loaded, world, {n: metal for n in world.names})
+    tables = world.refined_tables()
+    covered = {world.names[k] for k in np.flatnonzero(tables.offset >= 0)}
+    assert covered == {"torso", "arm", "box"}                        # the room's walls are flat-shaded
+    rng = np.random.default_rng(7)
+    obj, tri, bary = [], [], []
+    for name in ("arm", "torso", "box", "arm"):
+        k = world.index[name]
+        n = 4000
+        obj.append(np.full(n, k))
+        tri.append(rng.integers(0, len(world.surfaces[k].faces), n))
+        b = rng.uniform(0.0, 1.0, (n, 2))
+        bary.append(np.where(b.sum(axis=1, keepdims=True) > 1, 1.0 - b[:, ::-1], b))
+    obj, tri, bary = np.concatenate(obj), np.concatenate(tri), np.concatenate(bary)
+    assert np.all(tables.covers(obj))
+    got = refined_hit_geometry(tables, objects, obj, tri, bary)
+    for k in np.unique(obj):
+        sel = obj == k
+        want = objects[k].hit_geometry(tri[sel], bary[sel])
+        assert objects[k].placement.motion is not None               # spinning: the rotation field is exercised
+        for x, y, scale in zip([g[sel] for g in got], want, (1.0, 1.0, 1.0, 1.0 / 0.04)):
+            assert np.max(np.abs(x - y)) <= 1e-12 * scale

@@ -50,6 +50,8 @@ thread count (bit for bit from run to run).
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 
 from ..constants import SPEED_OF_LIGHT
@@ -144,108 +146,135 @@ def element_pair_po(bounce, tx_positions, rx_positions, rotation, wavelength: fl
 
 
 class _PairKernel:
-    """The two kernels of :func:`element_pair_po` for one radar geometry; called per chunk of samples."""
+    """The two kernels of :func:`element_pair_po` for one radar geometry; called per chunk of samples.
+
+    The kernels are built by :func:`_pair_outputs`, frozen (``dr.freeze``, one recording per named
+    element pattern, bounce depth and set of columns): after a chunk of the same configuration has
+    been traced once, a chunk of any size replays the recorded kernels without tracing the Python
+    again: the fixed cost of a call, some 1.3 ms before, is 0.3 ms (a frame's render of the static
+    chains that end on the body, ~900 samples, takes 0.3 of numpy's time instead of 1.0-1.2:
+    ``benchmarks/po_kernel.py``)."""
 
     def __init__(self, tx, rx, rotation, wavelength, pattern, depth):
         self.b = array_backend()
         b = self.b
         self.tx, self.rx, self.pattern, self.depth = tx, rx, pattern, depth
         rot = np.asarray(rotation, float)
-        self.k = dr.opaque(b.Float64, 2 * np.pi / wavelength)
-        self.inv_lambda = dr.opaque(b.Float64, 1.0 / wavelength)
-        self.rows = [[dr.opaque(b.Float64, float(rot[r, c])) for c in range(3)] for r in range(3)]
-        self.tx_el = [[dr.opaque(b.Float64, float(x)) for x in t] for t in tx]
-        self.rx_el = [[dr.opaque(b.Float64, float(x)) for x in r] for r in rx]
+        opaque = lambda x: dr.opaque(b.Float64, float(x))  # noqa: E731
+        self.scalars = {"k": opaque(2 * np.pi / wavelength), "inv_lambda": opaque(1.0 / wavelength),
+                        "rows": [[opaque(rot[r, c]) for c in range(3)] for r in range(3)],
+                        "tx": [[opaque(x) for x in t] for t in tx], "rx": [[opaque(x) for x in r] for r in rx]}
 
-    def local(self, d):                     # world -> radar frame (R^T d)
-        r = self.rows
-        return [r[0][c] * d[0] + r[1][c] * d[1] + r[2][c] * d[2] for c in range(3)]
-
-    def __call__(self, position, normal, velocity, weight, out, edges=None, gram=None, curvature=None,
-                 image_linear=None, image_offset=None, first_point=None, second_direction=None, first_velocity=None,
-                 direction=None, doppler_inner=None):
-        b, depth = self.b, self.depth
-
-        def cols(values):
-            return [aligned_float64(values[:, c], b) for c in range(values.shape[1])]
-
-        def sub(u, v):
-            return [u[c] - v[c] for c in range(3)]
-
-        def dot(u, v):
-            return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
-
-        pos, nrm, vel = cols(position), cols(normal), cols(velocity)
-        edge = None if edges is None else (cols(edges[:, :3]), cols(edges[:, 3:]))
-        gram = None if gram is None else cols(gram)
-        kappa = None if curvature is None else cols(curvature)
-        if depth > 1:
-            lin, off, first = cols(image_linear), cols(image_offset), cols(first_point)
-            k_out_1, v_1, k_in_d = cols(second_direction), cols(first_velocity), cols(direction)
-            inner = cols(doppler_inner)[0]
-
-        def side(el, transmit: bool):
-            """Distance, -n.u, the two edge projections and the three range-curvature terms
-            (e_i.e_j - (u.e_i)(u.e_j))/r, Doppler share and sqrt(G) of one element."""
-            if transmit and depth > 1:    # the image of the Tx element through the previous bounces
-                src = [lin[3 * r] * el[0] + lin[3 * r + 1] * el[1] + lin[3 * r + 2] * el[2] + off[r]
-                       for r in range(3)]
-            else:
-                src = el
-            d = sub(pos, src)
-            dist = dr.sqrt(dot(d, d))
-            u = [c / dist for c in d]                                   # element (image) -> sample
-            values = [dist, -dot(nrm, u)]
-            if edge is not None:
-                p1, p2 = dot(u, edge[0]), dot(u, edge[1])
-                values += [p1, p2, (gram[0] - p1 * p1) / dist, (gram[1] - p2 * p2) / dist, (gram[2] - p1 * p2) / dist]
-            towards = d
-            if depth == 1:
-                shift = -dot(vel, u) * self.inv_lambda
-            elif transmit:
-                towards = sub(first, el)                                # real element -> first hit
-                length = dr.sqrt(dot(towards, towards))
-                shift = dot(v_1, [k_out_1[c] - towards[c] / length for c in range(3)]) * self.inv_lambda + inner
-            else:
-                shift = dot(vel, [-u[c] - k_in_d[c] for c in range(3)]) * self.inv_lambda
-            return values + [shift, dr.sqrt(_gain(self.pattern, *self.local(towards)))]
-
-        tx_side = [side(t, True) for t in self.tx_el]
-        rx_side = [side(r, False) for r in self.rx_el]
-        dr.eval(*tx_side, *rx_side)
-        w_re, w_im = cols(weight)
-        outputs = []
-        k = self.k
-        for t in tx_side:
-            for r in rx_side:
-                amp = dr.maximum((t[1] + r[1]) * 0.5, 0.0) * t[-1] * r[-1] / (t[0] * r[0])
-                if edge is None:
-                    f_re, f_im = amp, 0.0
-                else:       # the footprint factor of physical_optics.footprint_factor
-                    h = [t[4 + i] + r[4 + i] for i in range(3)]
-                    if kappa is not None:
-                        h = [h[i] + (t[1] + r[1]) * kappa[i] for i in range(3)]
-                    sy, sy1, sy2 = _sinc_and_derivatives(0.5 * (k * (t[2] + r[2])))
-                    sz, sz1, sz2 = _sinc_and_derivatives(0.5 * (k * (t[3] + r[3])))
-                    mu = k * (h[0] + h[1]) / 24.0
-                    base = sy * sz
-                    im = mu * base + (k / 8.0) * (h[0] * sy2 * sz + h[1] * sy * sz2 + 2.0 * h[2] * sy1 * sz1)
-                    sin_mu, cos_mu = dr.sincos(mu)
-                    var = (k * k / 4.0) * ((h[0] * h[0] + h[1] * h[1]) / 180.0 + h[2] * h[2] / 36.0)
-                    second = var < 2.0                     # else the linear factor (|F| <= 1)
-                    f_re = amp * dr.select(second, cos_mu * base + sin_mu * im, base)
-                    f_im = amp * dr.select(second, cos_mu * im - sin_mu * base, 0.0)
-                # a = j w amp F
-                outputs += [-w_im * f_re - w_re * f_im, w_re * f_re - w_im * f_im,
-                            (t[0] + r[0]) * (1.0 / SPEED_OF_LIGHT), t[-2] + r[-2]]
-        dr.eval(*outputs)
+    def __call__(self, out, **columns):
+        b = self.b
+        inputs = {name: [aligned_float64(values[:, c], b) for c in range(values.shape[1])]
+                  for name, values in columns.items()}
+        if isinstance(self.pattern, str) and dr.width(inputs["position"][0]) > 1:
+            with _FROZEN_LOCK:   # a recording is one thread's at a time (threaded Dask workers share the process)
+                outputs = _frozen_pair_outputs(self.pattern, self.depth)(inputs, self.scalars)
+        else:   # one sample (the width of the scalars, which a frozen function keys on), or a measured
+            # pattern (its gain table a Dr.Jit array of its own, which a recording must not outlive)
+            outputs = _pair_outputs(self.pattern, self.depth, inputs, self.scalars)
+            dr.eval(*outputs)
         a, tau, doppler = out
-        n = len(self.rx_el)
+        n = len(self.rx)
         for j, (a_re, a_im, tau_j, doppler_j) in enumerate(zip(*[iter(outputs)] * 4)):
             a.real[j // n, j % n] = a_re.numpy()                        # j * weight * amp
             a.imag[j // n, j % n] = a_im.numpy()
             tau[j // n, j % n] = tau_j.numpy()
             doppler[j // n, j % n] = doppler_j.numpy()
+
+
+_FROZEN: dict = {}
+_FROZEN_LOCK = threading.Lock()
+
+
+def _frozen_pair_outputs(pattern: str, depth: int):
+    """:func:`_pair_outputs` of ``pattern`` and ``depth`` as a frozen function of ``(inputs, scalars)``."""
+    key = (pattern, depth)
+    if key not in _FROZEN:
+        _FROZEN[key] = dr.freeze(lambda inputs, scalars: _pair_outputs(pattern, depth, inputs, scalars))
+    return _FROZEN[key]
+
+
+def _pair_outputs(pattern: str, depth: int, inputs: dict, scalars: dict) -> list:
+    """The Dr.Jit outputs ``[a_re, a_im, tau, doppler] * (M N)`` of one chunk (module docstring):
+    ``inputs`` the per-sample columns (lists of ``Float64``) by name, as :func:`element_pair_po`
+    prepares them; ``scalars`` the opaque wavenumber, 1/wavelength, radar rotation rows and element positions."""
+    def sub(u, v):
+        return [u[c] - v[c] for c in range(3)]
+
+    def dot(u, v):
+        return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+    k, inv_lambda, rows = scalars["k"], scalars["inv_lambda"], scalars["rows"]
+
+    def local(d):                     # world -> radar frame (R^T d)
+        return [rows[0][c] * d[0] + rows[1][c] * d[1] + rows[2][c] * d[2] for c in range(3)]
+
+    pos, nrm, vel = inputs["position"], inputs["normal"], inputs["velocity"]
+    edge = (inputs["edges"][:3], inputs["edges"][3:]) if "edges" in inputs else None
+    gram = inputs.get("gram")
+    kappa = inputs.get("curvature")
+    if depth > 1:
+        lin, off, first = inputs["image_linear"], inputs["image_offset"], inputs["first_point"]
+        k_out_1, v_1, k_in_d = inputs["second_direction"], inputs["first_velocity"], inputs["direction"]
+        inner = inputs["doppler_inner"][0]
+
+    def side(el, transmit: bool):
+        """Distance, -n.u, the two edge projections and the three range-curvature terms
+        (e_i.e_j - (u.e_i)(u.e_j))/r, Doppler share and sqrt(G) of one element."""
+        if transmit and depth > 1:    # the image of the Tx element through the previous bounces
+            src = [lin[3 * r] * el[0] + lin[3 * r + 1] * el[1] + lin[3 * r + 2] * el[2] + off[r]
+                   for r in range(3)]
+        else:
+            src = el
+        d = sub(pos, src)
+        dist = dr.sqrt(dot(d, d))
+        u = [c / dist for c in d]                                   # element (image) -> sample
+        values = [dist, -dot(nrm, u)]
+        if edge is not None:
+            p1, p2 = dot(u, edge[0]), dot(u, edge[1])
+            values += [p1, p2, (gram[0] - p1 * p1) / dist, (gram[1] - p2 * p2) / dist, (gram[2] - p1 * p2) / dist]
+        towards = d
+        if depth == 1:
+            shift = -dot(vel, u) * inv_lambda
+        elif transmit:
+            towards = sub(first, el)                                # real element -> first hit
+            length = dr.sqrt(dot(towards, towards))
+            shift = dot(v_1, [k_out_1[c] - towards[c] / length for c in range(3)]) * inv_lambda + inner
+        else:
+            shift = dot(vel, [-u[c] - k_in_d[c] for c in range(3)]) * inv_lambda
+        return values + [shift, dr.sqrt(_gain(pattern, *local(towards)))]
+
+    tx_side = [side(t, True) for t in scalars["tx"]]
+    rx_side = [side(r, False) for r in scalars["rx"]]
+    dr.eval(*tx_side, *rx_side)
+    w_re, w_im = inputs["weight"]
+    outputs = []
+    for t in tx_side:
+        for r in rx_side:
+            amp = dr.maximum((t[1] + r[1]) * 0.5, 0.0) * t[-1] * r[-1] / (t[0] * r[0])
+            if edge is None:
+                f_re, f_im = amp, 0.0
+            else:       # the footprint factor of physical_optics.footprint_factor
+                h = [t[4 + i] + r[4 + i] for i in range(3)]
+                if kappa is not None:
+                    h = [h[i] + (t[1] + r[1]) * kappa[i] for i in range(3)]
+                sy, sy1, sy2 = _sinc_and_derivatives(0.5 * (k * (t[2] + r[2])))
+                sz, sz1, sz2 = _sinc_and_derivatives(0.5 * (k * (t[3] + r[3])))
+                mu = k * (h[0] + h[1]) / 24.0
+                base = sy * sz
+                im = mu * base + (k / 8.0) * (h[0] * sy2 * sz + h[1] * sy * sz2 + 2.0 * h[2] * sy1 * sz1)
+                sin_mu, cos_mu = dr.sincos(mu)
+                var = (k * k / 4.0) * ((h[0] * h[0] + h[1] * h[1]) / 180.0 + h[2] * h[2] / 36.0)
+                second = var < 2.0                     # else the linear factor (|F| <= 1)
+                f_re = amp * dr.select(second, cos_mu * base + sin_mu * im, base)
+                f_im = amp * dr.select(second, cos_mu * im - sin_mu * base, 0.0)
+            # a = j w amp F
+            outputs += [-w_im * f_re - w_re * f_im, w_re * f_re - w_im * f_im,
+                        (t[0] + r[0]) * (1.0 / SPEED_OF_LIGHT), t[-2] + r[-2]]
+    return outputs
 
 
 __all__ = ["element_pair_po"]

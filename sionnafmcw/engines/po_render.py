@@ -74,8 +74,7 @@ import numpy as np
 from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
 from ..electromagnetics import slab_reflection_coefficients, unit, vertical_polarisation
 from ..physical_optics import (
-    PhysicalOpticsError, SurfaceSamples, footprint_edges, in_sample_factor, interpolated_normals,
-    render_resolution,
+    PhysicalOpticsError, SurfaceSamples, footprint_edges, in_sample_factor, render_resolution, shape_operator,
 )
 from .loaded_scene import interpolate
 
@@ -124,10 +123,9 @@ def complex_reflection(cos_i, eta, thickness, wavelength, k_in, normal, e_t) -> 
     ``cos_i``, ``eta``, ``thickness`` ``[P]``; ``k_in``, ``normal``, ``e_t`` ``[P, 3]``."""
     r_te, r_tm = slab_reflection_coefficients(np.clip(cos_i, 0.0, 1.0), eta, thickness, wavelength)
     s_hat = np.cross(k_in, normal)
-    s_norm = np.linalg.norm(s_hat, axis=-1)
-    te = np.ones_like(s_norm)
-    ok = s_norm > 1e-9
-    te[ok] = np.einsum("pi,pi->p", e_t[ok], s_hat[ok] / s_norm[ok, None]) ** 2
+    s2 = np.einsum("pi,pi->p", s_hat, s_hat)
+    # (e_t . s/|s|)^2 = (e_t . s)^2/|s|^2; normal incidence (|s| <= 1e-9): TE
+    te = np.divide(np.einsum("pi,pi->p", e_t, s_hat) ** 2, s2, out=np.ones_like(s2), where=s2 > 1e-18)
     return r_te * te - r_tm * (1.0 - te)
 
 
@@ -245,27 +243,32 @@ class SceneObject:
         velocity :math:`\mathbf v_c + \boldsymbol\omega\times(\mathbf x - \mathbf c)` for a turning
         rigid object, the interpolated vertex velocities of a deforming one, else the uniform one."""
         surface, place = self.surface, self.placement
-        tri = surface.faces[triangle]
-        w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
-        smooth = surface.smooth_points(triangle, bary)
-        local = interpolate(surface.vertices, tri, w) if smooth is None else smooth[0]
-        position = place.to_world(local)
         rot = place.rotation
+        smooth = surface.smooth_points(triangle, bary)
+        if smooth is None:
+            w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
+            local = interpolate(surface.vertices, surface.faces[triangle], w)
+        else:
+            local = smooth[0]
         if surface.flat:   # what interpolated_normals gives there, without its arithmetic
             m = surface.corner_normals[triangle, 0]
-            normal = (m / np.linalg.norm(m, axis=-1)[:, None]) @ rot.T
+            normal = m / np.linalg.norm(m, axis=-1)[:, None]
             curvature = np.zeros((len(triangle), 3, 3))
         else:
-            corners, corner_normals = surface.vertices[tri], surface.corner_normals[triangle]
-            if not np.array_equal(rot, np.eye(3)):
-                # the construction is rotation-covariant: the turned corners give R n and R K R^T directly
-                corners = (corners.reshape(-1, 3) @ rot.T).reshape(-1, 3, 3)
-                corner_normals = (corner_normals.reshape(-1, 3) @ rot.T).reshape(-1, 3, 3)
-            normal, curvature = interpolated_normals(corners, corner_normals, bary)
+            normal, curvature = shape_operator(surface.corner_normals[triangle], surface.normal_gradients()[triangle],
+                                               bary)
             if smooth is not None:
-                normal = smooth[1] @ rot.T
+                normal = smooth[1]
+        position = place.to_world(local)
+        if not np.array_equal(rot, np.eye(3)):
+            normal = normal @ rot.T
+            if not surface.flat:   # K = R K_L R^T: rows turned, then columns (two products with the 3x3)
+                k = len(triangle)
+                turned = (curvature.reshape(-1, 3) @ rot.T).reshape(k, 3, 3).transpose(0, 2, 1)
+                curvature = (np.ascontiguousarray(turned).reshape(-1, 3) @ rot.T).reshape(k, 3, 3).transpose(0, 2, 1)
         if self.vertex_doppler and place.vertex_velocity is not None:
-            velocity = interpolate(place.vertex_velocity, tri, w)
+            w = np.stack([1.0 - bary[:, 0] - bary[:, 1], bary[:, 0], bary[:, 1]], axis=-1)
+            velocity = interpolate(place.vertex_velocity, surface.faces[triangle], w)
         elif self.vertex_doppler and place.motion is not None:
             velocity = place.motion.point_velocities(position)
         else:
@@ -383,10 +386,10 @@ class Render:
         directions of the chain's first and last segment, which the PO merge keys on
         (:func:`~sionnafmcw.engines.po_merge.merge_cells`)."""
         out = []
-        for points in (self.first_point, self.samples.position):
+        for points in (self.first_point, self.samples.position)[:1 if self.depth == 1 else 2]:
             d = points - np.asarray(centre, float)
             out.append((d / np.linalg.norm(d, axis=1, keepdims=True)) @ np.asarray(rotation, float))
-        return out[0], out[1]
+        return out[0], out[-1]   # bounce 1: one array for both (the first point is the sample)
 
     def carries_po(self) -> np.ndarray:
         """``[P]`` bool: the samples with a coherent share, :math:`S < 1` and (from bounce 2 on) a
@@ -453,19 +456,36 @@ def _reflection(obj_index, objects, normal, k_in, rotation, wavelength):
     return complex_reflection(cos_i, eta, thick, wavelength, k_in, normal, e_t), s
 
 
-def _samples(objects, obj_index, triangle, bary, source, step_az, step_el, solid, rotation, wavelength):
-    """:class:`SurfaceSamples` of hits (object index per hit into ``objects``)."""
+def _samples(world, objects, obj_index, triangle, bary, source, step_az, step_el, solid, rotation, wavelength):
+    """:class:`SurfaceSamples` of hits (object index per hit into ``objects``, the world's
+    :func:`scene_objects`): the geometry of hits on refined static and rigid surfaces in one kernel
+    (:func:`~.hit_geometry.refined_hit_geometry`), of the others per object
+    (:meth:`SceneObject.hit_geometry`)."""
+    from .hit_geometry import refined_hit_geometry
+
     num = len(obj_index)
     position = np.empty((num, 3))
     normal = np.empty((num, 3))
     velocity = np.empty((num, 3))
     curvature = np.empty((num, 3, 3))
     acceleration = None
-    for k, obj in enumerate(objects):
+    tables = world.refined_tables()
+    fast = np.flatnonzero(tables.covers(obj_index))
+    if fast.size:
+        position[fast], normal[fast], velocity[fast], curvature[fast] = refined_hit_geometry(
+            tables, objects, obj_index[fast], triangle[fast], bary[fast])
+    slow = np.ones(len(objects), dtype=bool)
+    slow[tables.offset >= 0] = False
+    for k in np.flatnonzero(slow):
         sel = np.flatnonzero(obj_index == k)
         if sel.size:
-            position[sel], normal[sel], velocity[sel], curvature[sel] = obj.hit_geometry(triangle[sel], bary[sel])
-            acc = obj.hit_acceleration(triangle[sel], bary[sel])
+            position[sel], normal[sel], velocity[sel], curvature[sel] = objects[k].hit_geometry(triangle[sel], bary[sel])
+    if num and all(objects[k].surface.flat for k in np.unique(obj_index)):
+        curvature = np.broadcast_to(np.zeros((3, 3)), (num, 3, 3))   # K = 0 on every hit: no [P, 3, 3] of zeros
+    if any(obj.placement.acceleration is not None for obj in objects):
+        for k in np.unique(obj_index):
+            sel = np.flatnonzero(obj_index == k)
+            acc = objects[k].hit_acceleration(triangle[sel], bary[sel])
             if acc is not None:
                 if acceleration is None:
                     acceleration = np.zeros((num, 3))
@@ -578,12 +598,14 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     # angular_grid_steps of the kept rays, from their grid angles
     s_az = (np.stack([-c_e * s_a, c_e * c_a, np.zeros_like(c_e)], -1) * d_az[:, None]) @ rotation.T
     s_el = (np.stack([-s_e * c_a, -s_e * s_a, c_e], -1) * d_el[:, None]) @ rotation.T
-    samples, direction, acceleration = _samples(objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid,
+    samples, direction, acceleration = _samples(world, objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid,
                                                 rotation, wavelength)
     p = samples.num_samples
-    eye = np.broadcast_to(np.eye(3), (p, 3, 3)).copy()
-    out = Render(samples, 1, np.broadcast_to(origin, (p, 3)).copy(), eye, np.zeros((p, 3)), np.ones(p, complex),
-                 direction, s_az, s_el, samples.position.copy(), samples.velocity.copy(), np.zeros(p), steps, num_rays)
+    # bounce 1: the source is the origin, the image map the identity, the chain empty, the first point
+    # the sample itself: read-only broadcasts and the samples' own arrays (no per-sample copies)
+    out = Render(samples, 1, np.broadcast_to(origin, (p, 3)), np.broadcast_to(np.eye(3), (p, 3, 3)),
+                 np.broadcast_to(np.zeros(3), (p, 3)), np.broadcast_to(np.complex128(1.0), (p,)),
+                 direction, s_az, s_el, samples.position, samples.velocity, np.broadcast_to(0.0, (p,)), steps, num_rays)
     if acceleration is not None:
         out.acceleration = acceleration
         out.source_velocity = np.broadcast_to(np.zeros(3) if origin_velocity is None else origin_velocity,
@@ -617,20 +639,25 @@ def reflect(world, previous: Render, objects: list[SceneObject], rotation, wavel
     idx = np.flatnonzero(valid)
     if idx.size == 0:
         return _empty_render(np.zeros(3), previous.step, int(valid.size), previous.depth + 1)
-    # mirror map of this bounce: x -> (I - 2 n n^T) x + 2 n (n . p)
-    reflect_lin = np.eye(3)[None] - 2 * n[idx, :, None] * n[idx, None, :]
-    reflect_off = 2 * n[idx] * np.einsum("pi,pi->p", n[idx], s.position[idx])[:, None]
+    # mirror map of this bounce: x -> (I - 2 n n^T) x + 2 n (n . p), applied as v - 2 n (n . v)
+    normal = n[idx]
+
+    def mirrored(v):
+        return v - 2.0 * normal * np.einsum("pi,pi->p", normal, v)[:, None]
+
+    reflect_off = 2 * normal * np.einsum("pi,pi->p", normal, s.position[idx])[:, None]
     if previous.depth == 1:   # the previous map is the identity
-        lin, off = reflect_lin, reflect_off
+        lin, off = np.eye(3)[None] - 2 * normal[:, :, None] * normal[:, None, :], reflect_off
     else:
-        lin = np.einsum("pij,pjk->pik", reflect_lin, previous.image_linear[idx])
-        off = np.einsum("pij,pj->pi", reflect_lin, previous.image_offset[idx]) + reflect_off
-    source = np.einsum("pij,pj->pi", reflect_lin, previous.source[idx]) + reflect_off
-    s_az = np.einsum("pij,pj->pi", reflect_lin, previous.step_az[idx])
-    s_el = np.einsum("pij,pj->pi", reflect_lin, previous.step_el[idx])
+        before = previous.image_linear[idx]
+        lin = before - 2.0 * normal[:, :, None] * np.einsum("pi,pij->pj", normal, before)[:, None, :]
+        off = mirrored(previous.image_offset[idx]) + reflect_off
+    source = mirrored(previous.source[idx]) + reflect_off
+    s_az = mirrored(previous.step_az[idx])
+    s_el = mirrored(previous.step_el[idx])
     # the tube's solid angle: |step_az x step_el| (exact for the grid's pixels to first order)
     solid = np.linalg.norm(np.cross(previous.step_az[idx], previous.step_el[idx]), axis=-1)
-    samples, direction, acceleration = _samples(objects, hit_obj[idx], prim[idx], uv[idx], source, s_az, s_el, solid,
+    samples, direction, acceleration = _samples(world, objects, hit_obj[idx], prim[idx], uv[idx], source, s_az, s_el, solid,
                                                 rotation, wavelength)
     chain = previous.chain_reflection[idx] * np.sqrt(np.clip(1 - s.scattering_coefficient[idx] ** 2, 0, 1)) \
         * s.reflection[idx]

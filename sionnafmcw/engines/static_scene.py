@@ -132,13 +132,22 @@ class Spheres:
         out = np.zeros(len(o), dtype=bool)
         if len(o) == 0 or len(self.radius) == 0:
             return out
-        # first the sphere around all the spheres, then each sphere on the segments that meet it
+        # first the sphere around all the spheres, then every sphere on the segments that meet it, at once:
+        # t_c = c.k - o.k and |c - o|^2 = |o|^2 - 2 c.o + |c|^2 as [P, K] products with the centres
         lo, hi = (self.centre - self.radius[:, None]).min(axis=0), (self.centre + self.radius[:, None]).max(axis=0)
         c_all = 0.5 * (lo + hi)
         r_all = float(np.max(np.linalg.norm(self.centre - c_all, axis=-1) + self.radius))
         idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all)) if len(self.radius) > 1 else np.arange(len(o))
-        for c, r in zip(self.centre, self.radius):
-            out[idx] |= _meet_one(o[idx], k[idx], length[idx], c, r)
+        if idx.size == 0:
+            return out
+        o, k, length = o[idx], k[idx], length[idx]
+        c = self.centre - c_all                     # about the joint centre: the products lose no digits
+        o = o - c_all
+        tc = k @ c.T - np.einsum("pi,pi->p", o, k)[:, None]
+        d2 = (np.einsum("pi,pi->p", o, o)[:, None] - 2.0 * (o @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
+        r2 = (self.radius ** 2)[None]
+        h = np.sqrt(np.clip(r2 - d2, 0.0, None))
+        out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= length[:, None]), axis=1)
         return out
 
 

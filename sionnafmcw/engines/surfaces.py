@@ -78,10 +78,21 @@ class Surface:
     mesh_faces: np.ndarray | None = None   # the stored mesh's faces (what the vertex map's triangles index)
     refined: object = None            # the :class:`~sionnafmcw.smooth_surface.RefinedSurface` (None: the mesh itself)
     mesh_edge: float = 0.0            # the stored mesh's longest edge (m)
+    _gradients: np.ndarray | None = field(default=None, repr=False)   # normal_gradients(), once computed
 
     def __post_init__(self):
         if self.first_vertices is None:
             self.first_vertices = self.vertices
+
+    def normal_gradients(self) -> np.ndarray:
+        """Per triangle the tensor :math:`\\mathbf T` of the interpolated normal's shape operator
+        (:func:`~sionnafmcw.physical_optics.normal_gradient_tensors`, ``[F, 3, 3]``, own frame): computed
+        on first use and kept (a deforming surface's rewrite drops it)."""
+        if self._gradients is None:
+            from ..physical_optics import normal_gradient_tensors
+
+            self._gradients = normal_gradient_tensors(self.vertices[self.faces], self.corner_normals)
+        return self._gradients
 
     @staticmethod
     def corner_normals_of(vertices, faces, vertex_normals=None, crease_angle=None) -> np.ndarray:
@@ -226,6 +237,7 @@ class SurfaceWorld:
     atlas: object = None                                 # the rigid surfaces' scene (module docstring)
     atlas_indices: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     _opaque: dict = field(default_factory=dict, repr=False)   # per surface: its placement as opaque Dr.Jit values
+    _refined_tables: object = field(default=None, repr=False)  # refined_tables(), once built
     _stamps: dict = field(default_factory=dict, repr=False)   # deforming surfaces: the loaded file they show
 
     @property
@@ -336,6 +348,7 @@ class SurfaceWorld:
             raise ValueError(f"{surface.name!r}: its mesh changes its vertex count from frame to frame")
         surface.vertices, surface.faces, surface.corner_normals = new.vertices, new.faces, new.corner_normals
         surface.vertex_map, surface.refined = new.vertex_map, new.refined
+        surface._gradients = None
         surface.curvature_radius = curvature_radius(surface.vertices, surface.faces, surface.corner_normals)
         surface.flat = flat_shaded(surface.corner_normals)
         lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
@@ -362,6 +375,15 @@ class SurfaceWorld:
                      [[opaque(place.rotation[a, b]) for b in range(3)] for a in range(3)], [opaque(x) for x in slot])
             self._opaque[j] = cache
         return cache[1:]
+
+    def refined_tables(self):
+        """The :class:`~.hit_geometry.RefinedTables` of the refined static and rigid surfaces (built on
+        first use: they do not change from frame to frame in their own frames)."""
+        if self._refined_tables is None:
+            from .hit_geometry import RefinedTables
+
+            self._refined_tables = RefinedTables(self.surfaces)
+        return self._refined_tables
 
     def moving(self) -> list[int]:
         """Indices of the surfaces that are not static."""

@@ -107,7 +107,7 @@ from math import factorial
 import finufft
 import numpy as np
 
-from ..threads import available_cores
+from .. import threads as run_threads_module
 from .accuracy import (MAX_ORDER, NUFFT_TOL, TAYLOR_TOL, OrderError, SynthesisAccuracy, choose_accuracy,
                        taylor_order)
 from .phase import PhasePolynomial
@@ -415,8 +415,8 @@ def beat_nufft(echoes, radar, workers: int | None = None, nufft_tol: float = NUF
         Channels sharing one finufft plan (1: a plan per channel); default
         :data:`CHANNELS_PER_PLAN` up to :data:`SHARED_PLAN_MAX_SOURCES` contributions per channel, else 1.
     workers : int, optional
-        Threads (default: the cores this process may use, :func:`~sionnafmcw.threads.available_cores`;
-        at most one per plan).
+        Threads (default :func:`~sionnafmcw.threads.synthesis_pool`: the run's share within
+        :func:`~sionnafmcw.threads.run_threads`, else the cores this process may use; at most one per plan).
     precision : {"complex64", "complex128"}, optional
         Override the precision chosen from the budget (for measurements of the error floor).
     weights : ndarray, optional
@@ -604,7 +604,7 @@ def _beat(echoes, radar, grid, workers, nufft_tol, taylor_tol, max_error, channe
                 cubes.append((o, c.m, c.n, cube))
         return cubes
 
-    workers = workers or min(len(groups), available_cores())
+    workers = workers or min(len(groups), run_threads_module.synthesis_pool())
     if workers > 1:
         with ThreadPoolExecutor(max_workers=workers) as pool:
             results = list(pool.map(run, groups, shifts))
