@@ -148,9 +148,10 @@ on ``threads // 2`` plans, all threads while it is behind, two frames queued:
 
 B 28.8 / 29.0 / 29.3 s (seeds 1 / 2 / 3): time B/A 0.640 / 0.666 / 0.651 (mean 0.652), CPU 0.586,
 peak memory 0.998 / 1.016 / 1.008 (A's own peak moves by 40-100 MiB from run to run); e_velo
-0.474 / 0.458 / 0.452, the previous B's to the digit. The surfaces' arrays then became views of the
-kernel's tables (one copy): the run's resident size on the lap, sampled every 50 ms, peaks at
-1296 MiB instead of 1334 (the figure of the closing note of issue 22, stop 27, with the A/B after it).
+0.474 / 0.458 / 0.452, the previous B's to the digit. With the surfaces' arrays then views of the
+kernel's tables (one copy), the same command an hour later, on a machine 7 % slower (A 47.7 s):
+B 31.3 s, time B/A 0.645 / 0.659 / 0.665 (0.656), peak memory B/A 1.002 / 0.988 / 0.952 (0.980;
+B 1403 MiB, A 1431).
 """
 
 from __future__ import annotations

@@ -14,8 +14,9 @@ every person's keypoints and activity (:mod:`sionnafmcw.store`). The synthesis a
 of frame :math:`n` run on one worker thread while
 the engine computes the next frames, up to :data:`PENDING_FRAMES` frames ahead; frames are written
 in order, each once its cube is complete (a signal stops the main thread; the write under way
-finishes first, the frames queued behind it are left to a resume). Memory is bounded by the echoes of the frames queued and one frame's synthesis; the
-synthesis is checked against the memory available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
+finishes first, the frames queued behind it are left to a resume). Memory is bounded by the echoes
+of the frames queued and one frame's synthesis; the synthesis is checked against the memory
+available before anything is written. The run is crash-safe: killed or interrupted at any instant, the store is
 valid and the same call resumes it (see :func:`simulate`).
 """
 
@@ -140,10 +141,11 @@ def _check_ranges(animation, radar, poses, indices, names) -> dict:
 
 
 #: Frames whose echoes may wait for the synthesis stage while the engine computes the next one. The
-#: stages take about as long as each other on the walk (2 cores: engine 0.25-0.30 s a frame, the
-#: synthesis and write 0.22-0.36 s, the second half of the lap heavier), so with one frame queued
-#: the engine waited whenever a frame's synthesis ran long (4-5 s of a 33 s run); with two, a short
-#: one catches up and the synthesis can tell that it is behind (:func:`~sionnafmcw.threads.synthesis_catching_up`).
+#: stages take about as long as each other on the walk, and a frame's synthesis varies (2.6-2.9 times
+#: the CPU for a frame of the lap's second half, :mod:`sionnafmcw.threads`), so with one frame queued
+#: the engine waited whenever a frame's synthesis ran long (3.7-4.8 s of "synth+st" in a 100-frame
+#: run, ``benchmarks/circle_walk.py``); with two, a short one catches up and the synthesis can tell
+#: that it is behind (:func:`~sionnafmcw.threads.synthesis_catching_up`).
 #: ``benchmarks/run_resources.py --settings arena1 queue1``: one place makes the run 1.04 times as
 #: long; each queued frame holds its echoes (tens of MB for the walk).
 PENDING_FRAMES = 2
@@ -359,8 +361,8 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
         # frame n is synthesised and written on a worker thread while the engine computes the next
         # frames (numpy, finufft and the store release the GIL). One worker: frames are written in
         # order, each once its cube is complete, so the store and its crash safety are as without
-        # the overlap; at most PENDING_FRAMES frames wait (memory). When the engine stops (an
-        # interrupt, an error) the frame being synthesised is still written: what was done is kept.
+        # the overlap; at most PENDING_FRAMES frames wait (memory). When the engine fails, every
+        # frame it computed is still written; an interrupt finishes the frame being synthesised.
         # A frame whose synthesis starts while the echoes of a later frame are ready (queued, or in
         # the engine's hands waiting for a place in the queue) is synthesised on all the run's
         # threads: the synthesis is behind the engine (sionnafmcw.threads).

@@ -58,8 +58,6 @@ class RefinedTables:
     Dr.Jit ``Float64`` arrays."""
 
     def __init__(self, surfaces):
-        from ..physical_optics import normal_gradient_tensors
-
         b = array_backend()
         num = len(surfaces)
         self.offset = np.full(num, -1, dtype=np.int64)
@@ -74,7 +72,7 @@ class RefinedTables:
             parent_index.append(s.refined.parent + prow)
             rows["parent_params"].append(s.refined.barycentric.reshape(-1, 6))
             rows["corner_normals"].append(s.corner_normals.reshape(-1, 9))
-            rows["gradients"].append(normal_gradient_tensors(s.vertices[s.faces], s.corner_normals).reshape(-1, 9))
+            rows["gradients"].append(s.normal_gradients().reshape(-1, 9))
             parents["control"].append(pn.control.reshape(-1, 30))
             parents["normal_control"].append(pn.normal_control.reshape(-1, 18))
             parents["flat"].append(pn.flat.astype(float).reshape(-1, 1))

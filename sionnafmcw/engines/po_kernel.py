@@ -151,14 +151,13 @@ class _PairKernel:
     The kernels are built by :func:`_pair_outputs`, frozen (``dr.freeze``, one recording per named
     element pattern, bounce depth and set of columns): after a chunk of the same configuration has
     been traced once, a chunk of any size replays the recorded kernels without tracing the Python
-    again: the fixed cost of a call, some 1.3 ms before, is 0.3 ms (a frame's render of the static
-    chains that end on the body, ~900 samples, takes 0.3 of numpy's time instead of 1.0-1.2:
-    ``benchmarks/po_kernel.py``)."""
+    again (a frame's render of the static chains that end on the body, ~900 samples, takes 0.3 of
+    numpy's time instead of 1.0-1.2: ``benchmarks/po_kernel.py``)."""
 
     def __init__(self, tx, rx, rotation, wavelength, pattern, depth):
         self.b = array_backend()
         b = self.b
-        self.tx, self.rx, self.pattern, self.depth = tx, rx, pattern, depth
+        self.num_rx, self.pattern, self.depth = len(rx), pattern, depth
         rot = np.asarray(rotation, float)
         opaque = lambda x: dr.opaque(b.Float64, float(x))  # noqa: E731
         self.scalars = {"k": opaque(2 * np.pi / wavelength), "inv_lambda": opaque(1.0 / wavelength),
@@ -177,7 +176,7 @@ class _PairKernel:
             outputs = _pair_outputs(self.pattern, self.depth, inputs, self.scalars)
             dr.eval(*outputs)
         a, tau, doppler = out
-        n = len(self.rx)
+        n = self.num_rx
         for j, (a_re, a_im, tau_j, doppler_j) in enumerate(zip(*[iter(outputs)] * 4)):
             a.real[j // n, j % n] = a_re.numpy()                        # j * weight * amp
             a.imag[j // n, j % n] = a_im.numpy()

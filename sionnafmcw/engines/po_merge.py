@@ -285,7 +285,7 @@ def merge_contributions(a, tau, doppler, labels, directions, radar, budget: floa
     hi = -1                                  # the finest size still worth merging (worth is monotone)
     while hi + 1 < len(FRACTIONS) and worth(hi + 1):
         hi += 1
-    if hi < 0 or not fits(hi, ends[:1]) or not fits(hi, ends):
+    if hi < 0 or not fits(hi, ends[:1]) or (len(ends) > 1 and not fits(hi, ends)):
         return unmerged
     lo = 0                                   # the coarsest size that fits on the two pairs, by bisection
     while lo < hi:

@@ -141,7 +141,7 @@ class Spheres:
         if idx.size == 0:
             return out
         o, k, length = o[idx], k[idx], length[idx]
-        c = self.centre - c_all                     # about the joint centre: the products lose no digits
+        c = self.centre - c_all                     # about the joint centre: |o|, |c| of metres, not of the room
         o = o - c_all
         tc = k @ c.T - np.einsum("pi,pi->p", o, k)[:, None]
         d2 = (np.einsum("pi,pi->p", o, o)[:, None] - 2.0 * (o @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
