@@ -17,7 +17,7 @@ $(VENV)/.installed: pyproject.toml scripts/setup.sh
 	bash scripts/setup_blender.sh
 
 # OpenRadar (openradar 1.0.1, needs numpy<1.24) for the TI interoperability test: its own
-# environment; it reads the DCA1000 captures sionnafmcw.io writes
+# environment; it reads the DCA1000 captures sionnafmcw.ti writes
 .venv-openradar/.installed: scripts/setup_openradar.sh
 	bash scripts/setup_openradar.sh
 

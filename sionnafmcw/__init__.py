@@ -7,7 +7,7 @@ TDM-MIMO beat cube) -> run store (:mod:`sionnafmcw.store`) -> :mod:`sionnafmcw.p
 
 Importing the package imports nothing heavy: every name below and every subpackage
 (``sf.scenes``, ``sf.dataset``, ``sf.validation``, ``sf.tf``, ``sf.processing``, ``sf.plots``,
-``sf.engines``, ``sf.io``, ...) is loaded on first use, so ``import sionnafmcw.animation`` works
+``sf.engines``, ``sf.ti``, ...) is loaded on first use, so ``import sionnafmcw.animation`` works
 in an environment without Sionna, Dr.Jit or finufft (the Blender exporter's). It only points
 ``DRJIT_LIBLLVM_PATH`` at a libLLVM >= 16 when the variable is unset (Dr.Jit's LLVM backend
 crashes with libLLVM-15, and Dr.Jit reads the variable once, when it is first imported);
@@ -49,8 +49,8 @@ _LAZY = {
 
 #: Subpackages and modules reachable as ``sionnafmcw.<name>``, imported on first use.
 _SUBMODULES = (
-    "animation", "array", "blender", "cli", "constants", "dataset", "echoes", "engines", "fs", "geometry", "io",
-    "materials", "plots", "processing", "radar", "scenes", "simulation", "sionna_rt", "store", "synthesis", "tf",
+    "animation", "array", "blender", "cli", "constants", "dataset", "echoes", "engines", "fs", "geometry",
+    "materials", "plots", "processing", "radar", "scenes", "simulation", "sionna_rt", "store", "synthesis", "tf", "ti",
     "validation",
 )
 

@@ -429,7 +429,7 @@ class RadarConfig:
           one of the changes);
         * the path (``str`` or :class:`~pathlib.Path`) of a ``.json`` file holding either dict form;
         * the path of a TI mmWave SDK ``.cfg`` file, read by
-          :func:`sionnafmcw.io.ti_cfg.read_ti_cfg`.
+          :func:`sionnafmcw.ti.cfg.read_ti_cfg`.
 
         Raises :class:`RadarConfigError` naming the file (when there is one) and the field:
         unknown fields against the known ones, wrong types, invalid JSON with its line and column.
@@ -464,11 +464,11 @@ class RadarConfig:
     # ------------------------------------------------------------------ presets
     @classmethod
     def from_ti_cfg(cls, path_or_text, board=None) -> "RadarConfig":
-        """The radar of a TI mmWave SDK / demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.read_ti_cfg`)."""
+        """The radar of a TI mmWave SDK / demo ``.cfg`` (:func:`sionnafmcw.ti.cfg.read_ti_cfg`)."""
         return format_function(".cfg", "read")(path_or_text, board=board)
 
     def to_ti_cfg(self, board=None, **options) -> str:
-        """This radar as a TI mmWave SDK demo ``.cfg`` (:func:`sionnafmcw.io.ti_cfg.write_ti_cfg`)."""
+        """This radar as a TI mmWave SDK demo ``.cfg`` (:func:`sionnafmcw.ti.cfg.write_ti_cfg`)."""
         return format_function(".cfg", "write")(self, board=board, **options)
 
     @staticmethod
@@ -576,7 +576,7 @@ def _from_file(path: Path) -> RadarConfig:
 #: Readers and writers of radar files in other formats, by file suffix: ``"module:function"``
 #: imported on first use (as :mod:`sionnafmcw.engines` registers its engines), so that this module
 #: imports none of them -- they import :class:`RadarConfig` (no import circle).
-FORMATS = {".cfg": {"read": "sionnafmcw.io.ti_cfg:read_ti_cfg", "write": "sionnafmcw.io.ti_cfg:write_ti_cfg"}}
+FORMATS = {".cfg": {"read": "sionnafmcw.ti.cfg:read_ti_cfg", "write": "sionnafmcw.ti.cfg:write_ti_cfg"}}
 
 
 def format_function(suffix: str, job: str):
@@ -592,11 +592,11 @@ def format_function(suffix: str, job: str):
 
 
 def _from_ti_cfg(path: Path) -> RadarConfig:
-    """A TI mmWave SDK ``.cfg`` file through :func:`sionnafmcw.io.ti_cfg.read_ti_cfg` (:data:`FORMATS`)."""
+    """A TI mmWave SDK ``.cfg`` file through :func:`sionnafmcw.ti.cfg.read_ti_cfg` (:data:`FORMATS`)."""
     try:
         read_ti_cfg = format_function(".cfg", "read")
     except ImportError as err:
-        raise RadarConfigError(f"{path}: reading a TI mmWave .cfg file needs sionnafmcw.io.ti_cfg, which cannot be "
+        raise RadarConfigError(f"{path}: reading a TI mmWave .cfg file needs sionnafmcw.ti.cfg, which cannot be "
                                f"imported ({err}); give a preset or a .json radar file instead") from None
     try:
         return read_ti_cfg(path)
@@ -611,9 +611,9 @@ def _from_ti_cfg(path: Path) -> RadarConfig:
 def _ti_profile(name, start_ghz, idle_us, adc_start_us, ramp_end_us, slope_mhz_us, num_samples,
                 rate_ksps, num_loops, tx_positions, rx_positions, tx_order, tx_power_dbm, noise_figure, device):
     """A TI mmWave SDK ``profileCfg``/``frameCfg`` pair in SI units, with the device's receiver
-    (:mod:`sionnafmcw.receiver.ti`: HPF codes 0/0 of the profiles, the complex-1x anti-alias filter,
+    (:mod:`sionnafmcw.ti.devices`: HPF codes 0/0 of the profiles, the complex-1x anti-alias filter,
     16-bit ADC at 30 dB gain, the data sheet's phase noise) and the board's element pattern."""
-    from .receiver import ti
+    from .ti import devices as ti
 
     f_stop = start_ghz * 1e9 + slope_mhz_us * 1e12 * ramp_end_us * 1e-6
     return RadarConfig(
@@ -648,7 +648,7 @@ def preset_ti_awr1843boost() -> RadarConfig:
     at 5.209 Msps, 16 loops of 3 Tx. TX power 12 dBm, noise figure 15 dB (AWR1843 data sheet,
     SWRS222). Element layout: :func:`_ti_three_tx_layout` at 77 GHz; element pattern
     ``"ti-awr1843boost"`` (:data:`sionnafmcw.antenna.BOARD_PATTERNS`); receiver of the data sheet
-    (:mod:`sionnafmcw.receiver.ti`): -93 dBc/Hz at 1 MHz (the 77-81 GHz sweep), HPF 175 + 350 kHz,
+    (:mod:`sionnafmcw.ti.devices`): -93 dBc/Hz at 1 MHz (the 77-81 GHz sweep), HPF 175 + 350 kHz,
     complex-1x anti-alias filter, 16-bit ADC.
     """
     tx, rx = _ti_three_tx_layout(77e9)

@@ -153,7 +153,7 @@ def test_presets_json_and_config(capsys, tmp_path):
 
 def test_presets_from_ti_cfg(capsys, tmp_path):
     """A TI mmWave .cfg shows the figures of the radar it describes (a preset's .cfg: that preset's)."""
-    from sionnafmcw.io.ti_cfg import write_ti_cfg
+    from sionnafmcw.ti.cfg import write_ti_cfg
 
     radar = RadarConfig.preset("ti-iwr6843isk")
     path = tmp_path / "profile.cfg"

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sionnafmcw.cli import main
-from sionnafmcw.io.dca1000 import AdcScale, read_dca1000
+from sionnafmcw.ti.dca1000 import AdcScale, read_dca1000
 from sionnafmcw.scenes import registry
 from sionnafmcw.store import open_run
 

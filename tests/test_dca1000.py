@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 from sionnafmcw import Echoes, RadarConfig, synthesize
-from sionnafmcw.io import dca1000
-from sionnafmcw.io.dca1000 import (AdcScale, CaptureError, export_run, read_dca1000, read_npz, write_capture,
+from sionnafmcw.ti import dca1000
+from sionnafmcw.ti.dca1000 import (AdcScale, CaptureError, export_run, read_dca1000, read_npz, write_capture,
                                    write_dca1000)
 
 

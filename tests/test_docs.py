@@ -33,7 +33,7 @@ def test_every_page_is_built(site):
                  "guide/datasets", "guide/scenes", "notebooks/01_quick_start", "notebooks/04_dataset_dask_tensorflow"):
         assert (site / f"{page}.html").is_file(), page
     api = (site / "api.html").read_text()
-    for module in ("sionnafmcw.engines", "sionnafmcw.store", "sionnafmcw.synthesis", "sionnafmcw.io"):
+    for module in ("sionnafmcw.engines", "sionnafmcw.store", "sionnafmcw.synthesis", "sionnafmcw.ti"):
         assert module in api, module
 
 

@@ -2,7 +2,7 @@
 
 Captures of point targets (all three TI presets: the xWR16xx 2-lane and the xWR14xx 4-lane
 formats) and of a simulated moving plate (path engine, a few frames, exported from the run store
-with :func:`sionnafmcw.io.export_run`) are processed by ``tests/openradar_harness.py`` in
+with :func:`sionnafmcw.ti.export_run`) are processed by ``tests/openradar_harness.py`` in
 ``.venv-openradar`` (numpy < 1.24; ``make .venv-openradar/.installed``). Every target must be
 among OpenRadar's strongest detections of each frame within
 
@@ -29,8 +29,8 @@ import pytest
 
 from sionnafmcw import Echoes, RadarConfig, synthesize
 from sionnafmcw.array import phase_centre
-from sionnafmcw.io import export_run, write_dca1000
-from sionnafmcw.io.ti_cfg import board_for_radar
+from sionnafmcw.ti import export_run, write_dca1000
+from sionnafmcw.ti.cfg import board_for_radar
 
 ROOT = Path(__file__).resolve().parents[1]
 VENV_PYTHON = ROOT / ".venv-openradar" / "bin" / "python"

@@ -150,7 +150,7 @@ def test_resolve_names_what_is_not_a_radar(tmp_path):
 
 
 def test_resolve_reads_a_ti_cfg_through_the_io_package(tmp_path):
-    from sionnafmcw.io.ti_cfg import write_ti_cfg
+    from sionnafmcw.ti.cfg import write_ti_cfg
 
     preset = RadarConfig.preset("ti-awr1843boost")
     path = tmp_path / "profile_3d.cfg"

@@ -16,7 +16,7 @@ import pytest
 from scipy import signal
 
 from sionnafmcw import Echoes, RadarConfig, synthesize
-from sionnafmcw.io.dca1000 import read_dca1000, write_dca1000
+from sionnafmcw.ti.dca1000 import read_dca1000, write_dca1000
 from sionnafmcw.radar import RadarConfigError
 from sionnafmcw.receiver import adc, if_filter, iq_imbalance, noise_power, phase_noise, summary, ti
 from sionnafmcw.synthesis import AdcClippingWarning
@@ -332,7 +332,7 @@ def test_defaults_off_for_walk_and_custom_on_for_ti_presets():
 
 
 def test_ti_cfg_carries_the_hpf_corners_and_rx_gain():
-    from sionnafmcw.io.ti_cfg import TiCfgError, read_ti_cfg, write_ti_cfg
+    from sionnafmcw.ti.cfg import TiCfgError, read_ti_cfg, write_ti_cfg
 
     radar = AWR.replace(if_filter=ti.if_chain(2, 3), rx_gain=36.0)
     text = write_ti_cfg(radar)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from sionnafmcw import RadarConfig
-from sionnafmcw.io.ti_cfg import (BOARDS, IGNORED_COMMANDS, TiCfgError, parse_ti_cfg, read_ti_cfg,
+from sionnafmcw.ti.cfg import (BOARDS, IGNORED_COMMANDS, TiCfgError, parse_ti_cfg, read_ti_cfg,
                                   write_ti_cfg)
 from sionnafmcw.radar import RadarConfigError
 

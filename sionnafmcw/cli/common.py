@@ -204,7 +204,7 @@ LIBRARY_USER_ERRORS = (
     ("sionnafmcw.simulation", "SimulationError"),
     ("sionnafmcw.engines.base", "EngineError"),  # every engine's errors, scene loading included
     ("sionnafmcw.dataset.spec", "SpecError"), ("sionnafmcw.dataset.index", "DatasetError"),
-    ("sionnafmcw.io.dca1000", "CaptureError"),
+    ("sionnafmcw.ti.dca1000", "CaptureError"),
 )
 
 

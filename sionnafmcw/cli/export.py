@@ -1,6 +1,6 @@
 """``sionnafmcw export``: a run store as the raw capture a TI board would record (DCA1000EVM
 ``.bin`` with its ``.cfg`` and a JSON sidecar), or as NumPy frames in TI's ``[chirp, rx, sample]``
-layout (:func:`sionnafmcw.io.dca1000.export_run`)."""
+layout (:func:`sionnafmcw.ti.dca1000.export_run`)."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ def add_parser(add) -> None:
 def run(args) -> int:
     import math
 
-    from ..io.dca1000 import AdcScale, export_run
+    from ..ti.dca1000 import AdcScale, export_run
 
     for option, value in (("--rx-gain-db", args.rx_gain_db), ("--adc-full-scale-dbm", args.adc_full_scale_dbm)):
         if not math.isfinite(value):

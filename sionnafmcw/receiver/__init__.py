@@ -23,7 +23,8 @@ import copy
 
 import numpy as np
 
-from . import adc, if_filter, iq_imbalance, phase_noise, ti
+from . import adc, if_filter, iq_imbalance, phase_noise
+from ..ti import devices as ti
 
 
 def beat_frequency(echoes, radar) -> np.ndarray:

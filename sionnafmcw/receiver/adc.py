@@ -39,7 +39,7 @@ FULL_SCALE_COUNTS = 2 ** 15 - 1
 @dataclass(frozen=True)
 class AdcScale:
     """Receiver gain and ADC full scale: the scale of the ADC in the cube and of the DCA1000 export
-    (:mod:`sionnafmcw.io.dca1000`, whose module docstring derives it).
+    (:mod:`sionnafmcw.ti.dca1000`, whose module docstring derives it).
 
     Parameters
     ----------

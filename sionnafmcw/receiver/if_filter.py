@@ -15,7 +15,7 @@ with :math:`P(s)` the prototype normalised to a critical frequency of 1 rad/s. A
 receiver filters I and Q with the same real filter: :math:`f_0 = 0`, the response is conjugate
 symmetric and the band is :math:`|f| < f_c`. A *complex* decimation filter (TI's complex-1x
 mode) passes only the positive beat frequencies :math:`[0, 2f_c]`: :math:`f_0 = f_c`
-(:mod:`sionnafmcw.receiver.ti`).
+(:mod:`sionnafmcw.ti.devices`).
 
 What a contribution sees. Within a chirp the beat of a contribution is a tone of frequency
 :math:`f_p = A_p F_s` (:mod:`sionnafmcw.synthesis.phase`, :math:`\approx \mu\tau_p - f_{D,p}`,

@@ -38,7 +38,7 @@ in the synthesis is then written word for word, with nothing rounded or clipped 
 :math:`\sqrt{\mathrm{W}}` again.
 
 A capture directory written here holds ``adc_data.bin``, ``capture.cfg`` (the mmWave SDK
-``.cfg`` of the radar, :func:`sionnafmcw.io.ti_cfg.write_ti_cfg`) and ``capture.json`` (the
+``.cfg`` of the radar, :func:`sionnafmcw.ti.cfg.write_ti_cfg`) and ``capture.json`` (the
 sidecar: format, board, scale, clipping, frame times, ground truth); the ``npz`` format holds
 ``adc_data.npz`` (``adc``: complex64 counts ``[frame, chirp, rx, sample]``, TI's frame layout,
 the same quantised values the ``.bin`` holds) instead of the ``.bin``.
@@ -54,7 +54,7 @@ import numpy as np
 
 from ..radar import RadarConfig
 from ..receiver.adc import AdcScale, export_scale
-from .ti_cfg import board_for_radar, board_of, parse_ti_cfg, radar_from_ti_cfg, write_ti_cfg
+from .cfg import board_for_radar, board_of, parse_ti_cfg, radar_from_ti_cfg, write_ti_cfg
 
 FORMAT = "sionnafmcw-dca1000/1"
 BIN_NAME = "adc_data.bin"
@@ -187,7 +187,7 @@ def write_capture(out_dir, radar: RadarConfig, frames, *, format: str = "dca1000
     radar : RadarConfig of the cubes
     frames : iterable of complex cubes ``[chirp, tx (physical order), rx, sample]`` (sqrt(W))
     format : ``"dca1000"`` (``adc_data.bin``) or ``"npz"`` (``adc_data.npz``, TI's ``[frame, chirp, rx, sample]``)
-    board : TI board (name or :class:`~sionnafmcw.io.ti_cfg.Board`); default from the radar's preset name.
+    board : TI board (name or :class:`~sionnafmcw.ti.cfg.Board`); default from the radar's preset name.
         Needed for ``dca1000`` (the lane order, the ``.cfg``); for ``npz`` without a board no ``.cfg`` is written.
     family : LVDS family overriding the board's
     scale : :class:`AdcScale` (default: the radar's ``rx_gain`` and ``adc_full_scale``, 30 dB and 0 dBm unless

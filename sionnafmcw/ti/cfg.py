@@ -33,7 +33,7 @@ transmitters taken from the board (:data:`BOARDS`, the layouts of the presets).
 
 What the ``.cfg`` does not hold (transmit power, noise figure, element pattern, ADC full scale)
 comes from the board's preset. ``txOutPower`` (a back-off code, dB) lowers the board's transmit
-power. The receiver (:mod:`sionnafmcw.receiver.ti`): ``hpfCornerFreq1``/``hpfCornerFreq2`` (codes
+power. The receiver (:mod:`sionnafmcw.ti.devices`): ``hpfCornerFreq1``/``hpfCornerFreq2`` (codes
 0-3) give the IF chain's two high-pass corners (with the complex-1x anti-alias filter),
 ``rxGain`` the receiver gain (its bits 5:0, dB; TI's 68xx profiles set the RF gain target in bits
 7:6, e.g. 158 = 30 dB), ``adcCfg 2`` the 16-bit ADC, and the phase noise is the device data
@@ -56,7 +56,7 @@ from pathlib import Path
 import numpy as np
 
 from ..radar import RadarConfig, RadarConfigError, _ti_three_tx_layout
-from ..receiver import ti as ti_receiver
+from . import devices as ti_receiver
 
 
 class TiCfgError(RadarConfigError):
@@ -75,14 +75,14 @@ class Board:
     family : str
         Device family, which fixes the DCA1000 LVDS format: ``"xWR14xx"`` (4 LVDS lanes, one per
         receiver) or ``"xWR16xx"`` (xWR16xx/18xx/68xx: 2 LVDS lanes, see
-        :mod:`sionnafmcw.io.dca1000`).
+        :mod:`sionnafmcw.ti.dca1000`).
     preset : str
         The :class:`RadarConfig` preset of this board: transmit power, noise figure and element
         pattern are taken from it.
     design_frequency : float
         Frequency (Hz) the element spacings are half wavelengths of.
     device : str
-        The radar device (its data sheet's receiver figures, :mod:`sionnafmcw.receiver.ti`).
+        The radar device (its data sheet's receiver figures, :mod:`sionnafmcw.ti.devices`).
     """
 
     name: str
