@@ -4,7 +4,14 @@ This file needs ``bpy``, ``mathutils``, numpy (< 2 inside Blender), the standard
 the numpy-only parts of ``sionnafmcw``: the PLY, frame-XML and manifest writers of
 :mod:`sionnafmcw.animation` and the atomic directory of :mod:`sionnafmcw.fs` (importing
 ``sionnafmcw`` loads nothing else). Run from a checkout, it puts the checkout on ``sys.path``;
-installed as an add-on, it uses the copy of those modules bundled in the add-on's zip. Four
+installed as an add-on, it uses the copy of those modules bundled in the add-on's zip.
+
+It runs in Blender 3.4 and newer (:data:`MIN_BLENDER`: Debian 12's ``blender`` 3.4.1 and the ``bpy``
+4.5 module write the same directory to float32 rounding); an older Blender is refused with one
+line naming the minimum. Blender's own builds bundle numpy; a distribution's Blender runs on the
+system Python, whose numpy is a separate package (Debian/Ubuntu: ``python3-numpy``). Where numpy
+cannot be imported the exporter prints one line naming the fix for that installation
+(:func:`numpy_fix`) and exits with status 1 (as an add-on: the same line as an ImportError). Four
 ways to run it:
 
 * Blender binary::
