@@ -343,6 +343,13 @@ def test_bpy_module_route_writes_the_same_directory(binary_export, module_export
     assert compare_directories(binary_export, module_export) == []
 
 
+def test_export_blend_runs_the_blender_binary(blend, binary_export, tmp_path):
+    """The simulator-side launcher, given the binary, writes the same directory as the README's command."""
+    path, _ = blend
+    out = export_blend(path, tmp_path / "anim", blender=BLENDER, timeout=TIMEOUT)
+    assert compare_directories(binary_export, out) == []
+
+
 def test_addon_zip_installs_in_the_blender_binary_and_exports(blend, binary_export, tmp_path):
     path, _ = blend
     zip_path = addon_zip(tmp_path / "addon.zip")
@@ -364,7 +371,8 @@ def test_addon_zip_installs_in_the_blender_binary_and_exports(blend, binary_expo
 def test_binary_without_numpy_prints_one_line_with_the_fix(blend, tmp_path):
     path, _ = blend
     out = tmp_path / "anim"
-    proc = run_blender([str(path), "--python-exit-code", "1", "--python-expr", "import sys; sys.modules['numpy'] = None",
+    hide_numpy = "import sys; sys.modules['numpy'] = None"
+    proc = run_blender([str(path), "--python-exit-code", "1", "--python-expr", hide_numpy,
                         "-P", str(script_path()), "--", str(out)])
     assert proc.returncode == 1
     lines = [ln for ln in proc.stderr.splitlines() if ln.strip()]
@@ -409,7 +417,8 @@ def test_numpy_fix_names_the_installation(prefix, binary, os_ids, expected):
 
 def test_blender_older_than_the_minimum_is_refused_with_the_version():
     exporter = _exporter_module()
-    assert exporter.blender_too_old((3, 4, 1), "3.4.1") is None and exporter.blender_too_old((4, 5, 15), "4.5.15") is None
+    assert exporter.blender_too_old((3, 4, 1), "3.4.1") is None
+    assert exporter.blender_too_old((4, 5, 15), "4.5.15") is None
     message = exporter.blender_too_old((3, 3, 21), "3.3.21")
     assert message is not None and "3.3.21" in message and "3.4" in message and "\n" not in message
     assert exporter.bl_info["blender"] == exporter.MIN_BLENDER
