@@ -266,7 +266,9 @@ def _refuse(message):
     raise ImportError(message)
 
 
-if bpy is not None and blender_too_old(bpy.app.version, bpy.app.version_string):
+# bpy.app.version is a tuple in Blender (anything else: a stand-in, e.g. the documentation build's)
+if bpy is not None and isinstance(getattr(bpy.app, "version", None), tuple) and \
+        blender_too_old(bpy.app.version, bpy.app.version_string):
     _refuse(blender_too_old(bpy.app.version, bpy.app.version_string))
 try:
     import numpy as np
