@@ -198,8 +198,8 @@ def blender_too_old(version, version_string):
     if tuple(version[:3]) >= MIN_BLENDER:
         return None
     return (f"Blender {version_string} is older than {'.'.join(map(str, MIN_BLENDER))}, the oldest Blender this "
-            "exporter is tested with: install Blender 3.4 or newer (blender.org, or Debian 12 / Ubuntu 24.04: "
-            "apt-get install blender python3-numpy)")
+            "exporter is tested with: install Blender 3.4 or newer (blender.org, or a distribution's package of 3.4 "
+            "or newer, e.g. Debian 12: apt-get install blender python3-numpy)")
 
 
 def numpy_fix(prefix, executable, python_version, binary_path, blender_version=None, os_ids=()):
