@@ -2,7 +2,7 @@
 # Creates .venv-blender: Blender as a Python module (bpy 4.5, Python 3.11 wheel from PyPI,
 # ~370 MB) for the Blender exporter (sionnafmcw/blender/export.py) and its tests, and, when root on
 # Debian/Ubuntu, installs the distribution's Blender binary with the numpy of the system Python it
-# runs on (apt-get install blender python3-numpy: Blender 3.4.1 on Debian 12, about 90 MB download)
+# runs on (apt-get install blender python3-numpy: Blender 3.4.1 on Debian 12, ~185 packages, ~165 MB of .deb)
 # for the test of the binary route, tests/test_blender_binary.py (skipped where there is no blender).
 #
 # bpy is built against numpy 1.x (its wheel needs numpy<2), while the simulator needs numpy 2:
