@@ -193,8 +193,9 @@ MIN_BLENDER = (3, 4, 0)
 def blender_too_old(version, version_string):
     """The one-line refusal for a Blender older than :data:`MIN_BLENDER`, or None.
 
-    (This and the code up to the numpy import run on any Python 3 a Blender ever bundled, so that
-    an old Blender gets this line rather than a syntax or type error: no ``X | None`` here.)"""
+    (This file parses, and the code up to the numpy import runs, on the Python 3.7 of Blender 2.80 and
+    later, so that an old Blender gets this line rather than a syntax or type error: no ``X | None``
+    evaluated before the check.)"""
     if tuple(version[:3]) >= MIN_BLENDER:
         return None
     return (f"Blender {version_string} is older than {'.'.join(map(str, MIN_BLENDER))}, the oldest Blender this "
