@@ -4,7 +4,14 @@ This file needs ``bpy``, ``mathutils``, numpy (< 2 inside Blender), the standard
 the numpy-only parts of ``sionnafmcw``: the PLY, frame-XML and manifest writers of
 :mod:`sionnafmcw.animation` and the atomic directory of :mod:`sionnafmcw.fs` (importing
 ``sionnafmcw`` loads nothing else). Run from a checkout, it puts the checkout on ``sys.path``;
-installed as an add-on, it uses the copy of those modules bundled in the add-on's zip. Four
+installed as an add-on, it uses the copy of those modules bundled in the add-on's zip.
+
+It runs in Blender 3.4 and newer (:data:`MIN_BLENDER`: Debian 12's ``blender`` 3.4.1 and the ``bpy``
+4.5 module write the same directory to float32 rounding); an older Blender is refused with one
+line naming the minimum. Blender's own builds bundle numpy; a distribution's Blender runs on the
+system Python, whose numpy is a separate package (Debian/Ubuntu: ``python3-numpy``). Where numpy
+cannot be imported the exporter prints one line naming the fix for that installation
+(:func:`numpy_fix`) and exits with status 1 (as an add-on: the same line as an ImportError). Four
 ways to run it:
 
 * Blender binary::
@@ -172,7 +179,104 @@ import time
 import traceback
 from pathlib import Path
 
-import numpy as np
+try:  # inside Blender (binary or bpy module); the pure maths below works without it
+    import bpy
+except ImportError:  # pragma: no cover - only for reading the maths outside Blender
+    bpy = None
+
+ERROR_MARKER = "sionnafmcw-export: error: "
+#: The oldest Blender the exporter runs in: Debian 12's 3.4.1, the oldest the tests run
+#: (tests/test_blender_binary.py exports the same scene with it and with bpy 4.5 and compares).
+MIN_BLENDER = (3, 4, 0)
+
+
+def blender_too_old(version, version_string):
+    """The one-line refusal for a Blender older than :data:`MIN_BLENDER`, or None.
+
+    (This file parses, and the code up to the numpy import runs, on the Python 3.7 of Blender 2.80 and
+    later, so that an old Blender gets this line rather than a syntax or type error: no ``X | None``
+    evaluated before the check.)"""
+    if tuple(version[:3]) >= MIN_BLENDER:
+        return None
+    return (f"Blender {version_string} is older than {'.'.join(map(str, MIN_BLENDER))}, the oldest Blender this "
+            "exporter is tested with: install Blender 3.4 or newer (blender.org, or a distribution's package of 3.4 "
+            "or newer, e.g. Debian 12: apt-get install blender python3-numpy)")
+
+
+def numpy_fix(prefix, executable, python_version, binary_path, blender_version=None, os_ids=()):
+    """The one-line message for a Blender whose Python cannot import numpy, naming the fix for that installation.
+
+    Three installations exist:
+
+    * Blender's own builds (blender.org, Steam, snap) bundle a Python with numpy, at
+      ``<blender>/<major.minor>/python``; numpy missing there means a damaged install;
+    * a distribution's Blender (Debian, Ubuntu, Fedora, Arch...) runs on the system Python
+      (``sys.prefix`` elsewhere), which has numpy only through the distribution's package
+      (Debian/Ubuntu: ``python3-numpy``, not a dependency of ``blender`` there);
+    * Blender as a Python module (``bpy``, ``binary_path`` empty): numpy comes from pip, and bpy 4.x
+      is built against numpy 1.x.
+
+    ``binary_path`` is None outside Blender (this file read for its maths).
+
+    ``os_ids`` are ``ID`` and ``ID_LIKE`` of ``/etc/os-release`` (lower case).
+    """
+    where = f"the Python {python_version} at {prefix}"
+    if binary_path is None:
+        return f"numpy is not importable in {where}: install it ('{executable} -m pip install numpy')"
+    if not binary_path:
+        pin = '"numpy<2"' if blender_version is not None and tuple(blender_version) < (5, 0, 0) else "numpy"
+        return (f"numpy is not importable in {where}, which runs Blender as the bpy module: install it with "
+                f"'{executable} -m pip install {pin}' (the project's .venv-blender: bash scripts/setup_blender.sh)")
+    parts = Path(prefix).parts
+    bundled = len(parts) >= 2 and parts[-1].lower() == "python" and re.fullmatch(r"\d+\.\d+", parts[-2]) is not None
+    if bundled:
+        return (f"numpy is not importable in {where}, the Python bundled with this Blender ({binary_path}); "
+                "Blender's own builds bundle numpy, so this installation is damaged: reinstall Blender from "
+                f"blender.org, or run '{executable} -m pip install numpy'")
+    ids = set(os_ids)
+    if ids & {"debian", "ubuntu"}:
+        command = "apt-get install python3-numpy"
+    elif ids & {"fedora", "rhel", "centos"}:
+        command = "dnf install python3-numpy"
+    elif ids & {"arch"}:
+        command = "pacman -S python-numpy"
+    elif ids & {"suse", "opensuse"}:
+        command = "zypper install python3-numpy"
+    else:
+        command = "install your distribution's numpy package for that Python"
+    return (f"numpy is not importable in {where}, the system Python this Blender ({binary_path}) runs on; "
+            f"your distribution packages numpy separately: {command} (as root), then run the export again; "
+            "Blender's own builds (blender.org) bundle numpy")
+
+
+def _os_ids() -> tuple:
+    try:
+        import platform
+        info = platform.freedesktop_os_release()
+    except (AttributeError, OSError):
+        return ()
+    return tuple(x.lower() for x in (info.get("ID", "") + " " + info.get("ID_LIKE", "")).split())
+
+
+def _refuse(message):
+    """Stop with ``message`` on one line: exit status 1 when run as a script (``blender -P``, or the bpy
+    module's Python), ImportError when imported (an add-on being enabled, or importlib)."""
+    if __name__ == "__main__":
+        print(ERROR_MARKER + message, file=sys.stderr, flush=True)
+        sys.exit(1)
+    raise ImportError(message)
+
+
+# bpy.app.version is a tuple in Blender (anything else: a stand-in, e.g. the documentation build's)
+if bpy is not None and isinstance(getattr(bpy.app, "version", None), tuple) and \
+        blender_too_old(bpy.app.version, bpy.app.version_string):
+    _refuse(blender_too_old(bpy.app.version, bpy.app.version_string))
+try:
+    import numpy as np
+except ImportError:
+    _refuse(numpy_fix(sys.prefix, sys.executable, "%d.%d" % sys.version_info[:2],
+                      bpy.app.binary_path if bpy is not None else None,
+                      bpy.app.version if bpy is not None else None, _os_ids()))
 
 
 def _put_sionnafmcw_on_path() -> None:
@@ -194,23 +298,16 @@ from sionnafmcw.animation.ply import ply_bytes  # noqa: E402
 from sionnafmcw.animation.rigid import RIGID_TOLERANCE, angular_velocity, rigid_fit, transform_matrix  # noqa: E402
 from sionnafmcw.fs import atomic_directory  # noqa: E402
 
-try:  # inside Blender (binary or bpy module); the pure maths below works without it
-    import bpy
-except ImportError:  # pragma: no cover - only for reading the maths outside Blender
-    bpy = None
-
 bl_info = {
     "name": "sionnafmcw radar animation",
     "author": "sionnafmcw",
     "version": (0, 1, 0),
-    "blender": (3, 6, 0),
+    "blender": (3, 4, 0),  # MIN_BLENDER (Blender reads bl_info as a literal, without running this file)
     "location": "File > Export > sionnafmcw radar animation",
     "description": "Export the animated scene as a sionnafmcw animation directory (Mitsuba XML frames, "
                    "PLY meshes with vertex velocities, manifest with object velocities and radar pose)",
     "category": "Import-Export",
 }
-
-ERROR_MARKER = "sionnafmcw-export: error: "
 
 #: ITU-R P.2040 material types Sionna RT 2.2 knows (``ITU_MATERIALS_PROPERTIES``).
 ITU_TYPES = ("vacuum", "concrete", "brick", "plasterboard", "wood", "glass", "ceiling_board", "chipboard",
@@ -497,17 +594,25 @@ SMOOTH_NORMAL_TOLERANCE = 1e-4
 def _smooth_vertex_normals(mesh, nv):
     """Unit vertex normals ``[V, 3]`` (object space) of a mesh whose every corner normal equals its
     vertex normal (smooth shading, no sharp edges or custom split normals), else None: such a mesh's
-    surface is the smooth one its normals describe, which the engines rebuild for physical optics."""
-    try:
-        nl = len(mesh.loops)
-        loop_vertex = np.empty(nl, dtype=np.int32)
-        mesh.loops.foreach_get("vertex_index", loop_vertex)
-        corner = np.empty(3 * nl, dtype=np.float32)
+    surface is the smooth one its normals describe, which the engines rebuild for physical optics.
+
+    Blender >= 4.1 keeps the corner ("split") normals in ``Mesh.corner_normals``; older ones compute
+    them on request (``Mesh.calc_normals_split``) into ``MeshLoop.normal``, and keep the vertex
+    normals in ``MeshVertex.normal``. Both are the same quantities (auto smooth by angle of a 3.x
+    file becomes a "Smooth by Angle" modifier in 4.1+, which marks the same sharp edges), so every
+    supported Blender writes the same normals."""
+    nl = len(mesh.loops)
+    loop_vertex = np.empty(nl, dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", loop_vertex)
+    corner = np.empty(3 * nl, dtype=np.float32)
+    vertex = np.empty(3 * nv, dtype=np.float32)
+    if hasattr(mesh, "corner_normals"):
         mesh.corner_normals.foreach_get("vector", corner)
-        vertex = np.empty(3 * nv, dtype=np.float32)
         mesh.vertex_normals.foreach_get("vector", vertex)
-    except AttributeError:   # a Blender without corner_normals (< 4.1): no normals, the engine smooths by angle
-        return None
+    else:
+        mesh.calc_normals_split()
+        mesh.loops.foreach_get("normal", corner)
+        mesh.vertices.foreach_get("normal", vertex)
     corner, vertex = corner.reshape(-1, 3), vertex.reshape(-1, 3)
     if nl == 0 or np.max(np.abs(corner - vertex[loop_vertex])) > SMOOTH_NORMAL_TOLERANCE:
         return None
