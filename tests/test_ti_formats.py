@@ -167,6 +167,11 @@ def test_driver_params_reproduce_radhar_grid():
     assert "%.12g" % params.range_resolution == "0.0435769706964"
     assert "%.12g" % params.doppler_vel_resolution == "0.614668667316"
     assert params.num_loops == 16
+    cfg = REALDATA / "1443es1_short_range_3d.cfg"
+    if cfg.is_file():                                  # the same through the project's .cfg reader
+        from sionnafmcw.ti import read_ti_cfg
+
+        assert DriverParams.from_radar(read_ti_cfg(cfg)) == params
 
 
 def test_ros_scan_axes_and_filter():
@@ -231,6 +236,25 @@ bearing: -77.6192398071
 intensity: 31.9865703583
 ---
 """
+
+
+#: The same two messages verbatim, headers included (RadHAR's own layout, trailing spaces kept).
+REAL_DUMP = ("header: \n  seq: 3026037\n  stamp: \n    secs: 1561686032\n    nsecs: 152442104\n"
+             '  frame_id: "ti_mmwave"\n' + REAL_TEXT.split("---\n")[0] + "---\n"
+             "header: \n  seq: 3026038\n  stamp: \n    secs: 1561686032\n    nsecs: 152517238\n"
+             '  frame_id: "ti_mmwave"\n' + REAL_TEXT.split("---\n")[1] + "---\n")
+
+
+def test_reader_reads_radhar_text_layout(tmp_path):
+    path = tmp_path / "Data" / "Train" / "boxing" / "20_boxing_1.txt"
+    path.parent.mkdir(parents=True)
+    path.write_text(REAL_DUMP)
+    rec = read_recording(path)
+    assert rec.activity == "boxing" and rec.source == "Data/Train/boxing/20_boxing_1.txt"
+    assert rec.point_id.tolist() == [0, 1] and rec.frame.tolist() == [0, 0]
+    assert rec.x.tolist() == [0.01171875, 0.017578125] and rec.doppler_bin.tolist() == [8, 8]
+    assert rec.stamp[1] - rec.stamp[0] == pytest.approx(75.134e-6, abs=1e-6)
+    assert [r.num_points for r in read_dataset(tmp_path / "Data")] == [2]
 
 
 @needs_radhar
