@@ -40,7 +40,7 @@ class GuiMonitor:
 
 @dataclass(frozen=True)
 class DetectedPoints:
-    """One frame of the OOB demo's output. Point arrays are ``[N]`` (N <= the demo's point limit).
+    r"""One frame of the OOB demo's output. Point arrays are ``[N]`` (N <= the demo's point limit).
 
     Parameters
     ----------
