@@ -138,6 +138,41 @@ def test_peak_value_is_the_radar_equation_through_the_fixed_point_chain():
     assert abs(float(points0.peak_value[index]) - expected) <= rounding + 1e-3 * expected
 
 
+def test_snr_side_info_is_the_radar_equation_in_the_sdks_log2_units():
+    r"""SDK 3.x SNR (0.1 dB): 60 D/256 - 60 n/256 with D the detection matrix at the point and n the
+    range CFAR's noise estimate, both sums of log2 magnitudes in Q8 over N = 12 antennas shifted by
+    log2 N' = 4. So the device reports 6 (N/N') dB per unit of log2 (6 for 20 log10 2 = 6.02).
+
+    Closed form, noise on, ideal IF chain, reflector at a range- and Doppler-bin centre: the
+    per-antenna amplitude SNR after both FFTs is
+    S/sigma = sqrt(P_t |a|^2 / (k T0 F Fs)) * G(w_r) * G(w_d) with the coherent window gains
+    G(w) = sum(w) / sqrt(sum(w^2)). A noise cell's log2 magnitude has the mean
+    log2 sigma - gamma / (2 ln 2) (|X|^2 exponential; gamma Euler's constant); the CASO estimate is
+    the smaller of two side means of 8 cells, each cell a mean over 12 antennas: standard deviation
+    s = pi / (sqrt(24) ln 2) / sqrt(12 * 8) log2 units per side and a bias of -s / sqrt(pi). The
+    max + 3/8 min magnitude approximation biases target and noise alike. So
+    SNR = 6 (N/N') (log2(S/sigma) + gamma/(2 ln 2) + s/sqrt(pi)), within three s and the 0.1 dB
+    rounding of the two terms."""
+    radar, processing = setup(3)
+    radar = radar.replace(if_filter=None, phase_noise=None)
+    n_range = 256
+    step = 299792458.0 * radar.fs / (2 * radar.slope * n_range)
+    distance = 120 * step
+    echoes = Echoes.point_targets(radar, ranges=[distance], radial_velocities=[0.0], azimuths=[0.0], rcs=[0.05])
+    points = detect(synthesize(echoes, radar, rng=11), radar, processing)
+    index = np.flatnonzero(points.range_index == 120)
+    assert index.size == 1
+    gain = lambda w: w.sum() / np.sqrt((w ** 2).sum())      # noqa: E731
+    snr_amplitude = math.sqrt(radar.tx_power * np.mean(np.abs(echoes.a) ** 2) / radar.noise_power) \
+        * gain(blackman_q17(radar.num_samples)) * gain(hanning_q17(radar.num_chirps))
+    s = math.pi / (math.sqrt(24) * math.log(2)) / math.sqrt(12 * 8)
+    euler = 0.5772156649015329
+    scale = 6 * 12 / 16
+    expected = scale * (math.log2(snr_amplitude) + euler / (2 * math.log(2)) + s / math.sqrt(math.pi))
+    assert 20 < expected < 60
+    assert abs(float(points.snr_db[index[0]]) - expected) <= scale * 3 * s + 0.2
+
+
 @pytest.mark.parametrize("sdk", [2, 3])
 def test_raising_the_threshold_removes_the_point_as_the_cfar_rule_says(sdk):
     """A detection survives while D > noise + T: with the threshold one count below D - noise the
