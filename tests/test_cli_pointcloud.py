@@ -58,6 +58,8 @@ def _bad_cfg(tmp_path) -> str:
     (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--cfg", "{tmp}/none.cfg"], "none.cfg"),
     (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--cfg", "{bad}"], "peakGrouping"),
     (["pointcloud", "{preset}", "--out", "{tmp}/o.npz"], "--cfg"),
+    (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--frames", "5"], "--frames"),
+    (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--stamp0", "inf"], "--stamp0"),
 ])
 def test_pointcloud_bad_input_is_one_line_and_leaves_nothing(radhar_run, preset_run, tmp_path, capsys,
                                                              argv, culprit):
@@ -82,7 +84,6 @@ def test_pointcloud_help_ends_with_an_example(capsys):
 def test_pointcloud_end_to_end_in_every_format(radhar_run, tmp_path, capsys):
     """The plate at 2 m comes out of the SDK 1.x/2.x chain and lands, through each writer, where
     an independent reader finds it: forward (ROS x) within one range bin of the sensor's range."""
-    pytest.importorskip("sionnafmcw.ti.oob", reason="the on-chip chain (branch ti-chain) is not merged yet")
     import yaml
     from rosbags.rosbag2 import Reader
 
@@ -93,7 +94,9 @@ def test_pointcloud_end_to_end_in_every_format(radhar_run, tmp_path, capsys):
     for fmt, name in (("npz", "pc.npz"), ("radhar", "pc.txt"), ("tlv", "pc.bin"), ("rosbag2", "pc_bag")):
         out = tmp_path / name
         assert main(["pointcloud", str(radhar_run), "--out", str(out), "--format", fmt, "--quiet"]) == 0
-        assert "2 frames" in capsys.readouterr().out
+        printed = capsys.readouterr().out
+        assert "2 frames" in printed and "SDK 1.x/2.x" in printed, printed
+        print(printed.strip())
         outputs[fmt] = out
     assert not any(p.name.endswith(".partial") for p in tmp_path.iterdir())
     bin_m = 3e8 * 4884e3 / (2 * 70e12 * 256)                                  # the device's range bin
@@ -102,10 +105,23 @@ def test_pointcloud_end_to_end_in_every_format(radhar_run, tmp_path, capsys):
     assert np.min(np.abs(np.sqrt(arrays["x"] ** 2 + arrays["y"] ** 2 + arrays["z"] ** 2) - truth)) < 1.5 * bin_m
     messages = [yaml.safe_load(m) for m in outputs["radhar"].read_text().split("---\n") if m.strip()]
     assert [m["x"] for m in messages] == pytest.approx(arrays["x"].tolist())
-    stream = outputs["tlv"].read_bytes()
-    assert stream[:8] == bytes([2, 1, 4, 3, 6, 5, 8, 7])
-    version, total, platform = struct.unpack_from("<3I", stream, 8)
-    assert version >> 24 == 2 and platform & 0xFFFF == 0x1443 and total % 32 == 0
+    stream, pos, sensor = outputs["tlv"].read_bytes(), 0, []
+    while pos < len(stream):                 # SDK 1.x/2.x packets: 36-byte header, TLV 1 in Q format
+        assert stream[pos:pos + 8] == bytes([2, 1, 4, 3, 6, 5, 8, 7])
+        version, total, platform, _, _, num_obj, num_tlv = struct.unpack_from("<7I", stream, pos + 8)
+        assert version >> 24 == 2 and platform & 0xFFFF == 0x1443 and total % 32 == 0
+        if num_tlv:
+            kind, _ = struct.unpack_from("<2I", stream, pos + 36)
+            count, q = struct.unpack_from("<2H", stream, pos + 44)
+            assert kind == 1 and count == num_obj
+            sensor += [np.array(struct.unpack_from("<3h", stream, pos + 48 + 12 * i + 6)) / 2**q
+                       for i in range(count)]
+        pos += total
+    sensor = np.array(sensor)
+    published = sensor[sensor[:, 1] != 0]                 # the driver drops points at sensor y = 0
+    np.testing.assert_array_equal(arrays["x"], published[:, 1])
+    np.testing.assert_array_equal(arrays["y"], -published[:, 0])
+    np.testing.assert_array_equal(arrays["z"], published[:, 2])
     with Reader(outputs["rosbag2"]) as reader:
         topics = {c.topic for c in reader.connections}
         assert topics == {"/ti_mmwave/radar_scan_pcl", "/ti_mmwave/radar_scan"}

@@ -51,21 +51,6 @@ def add_parser(add) -> None:
     p.set_defaults(func=run)
 
 
-def processing_for(run_path, radar, cfg):
-    """The chain's configuration: ``--cfg``'s processing lines, or those the run's radar kept."""
-    from ..ti.processing import processing_from_cfg, processing_from_lines
-
-    if cfg is not None:
-        if not Path(cfg).is_file():
-            raise UserError(f"--cfg {cfg}: no such file")
-        return processing_from_cfg(Path(cfg))
-    lines = getattr(radar, "ti_processing", None)
-    if not lines:
-        raise UserError(f"{run_path}: the run's radar did not come from a TI .cfg with processing lines; "
-                        "give them with --cfg FILE (cfarCfg, guiMonitor, ...)")
-    return processing_from_lines(lines, source=f"{run_path} (the run's radar .cfg)")
-
-
 def run(args) -> int:
     import math
 
@@ -79,12 +64,13 @@ def run(args) -> int:
         raise UserError(f"--out {out}: folder {out.parent} does not exist")
     if not math.isfinite(args.stamp0):
         raise UserError(f"--stamp0 {args.stamp0}: must be a finite number of seconds")
-    store = open_run_or_error(args.run)
-    processing = processing_for(args.run, store.radar, args.cfg)
-    frames = parse_frames(args.frames, store.num_frames) if args.frames is not None else None
-    from ..ti.oob import run_point_clouds
+    from ..ti.oob import run_point_clouds, run_processing
 
-    total = len(frames) if frames is not None else store.num_frames
+    store = open_run_or_error(args.run)
+    # --cfg's processing lines, or those the run's radar kept from the .cfg it was read from
+    processing = run_processing(store, Path(args.cfg) if args.cfg is not None else None)
+    frames = parse_frames(args.frames, store.num_frames) if args.frames is not None else None
+    total = len(frames) if frames is not None else len(store.done_frames)
     counted = {"frames": 0, "points": 0}
 
     def stream():
