@@ -12,6 +12,9 @@
   (:func:`~sionnafmcw.ti.oob.detect`, :func:`~sionnafmcw.ti.oob.run_point_clouds`).
 * :mod:`sionnafmcw.ti.points` -- one frame of the out-of-box demo's output
   (:class:`~sionnafmcw.ti.points.DetectedPoints`).
+* :mod:`sionnafmcw.ti.formats` -- the formats real pipelines read, written frame by frame: the
+  demo's UART TLV stream, ROS 2 bags as TI's ROS 2 driver records them, RadHAR's text dumps and
+  ``.npz`` (and one reader of RadHAR recordings, real or simulated).
 * :mod:`sionnafmcw.ti.cfg_text` -- a ``.cfg``'s text as numbered commands, and :class:`TiCfgError`.
 """
 
