@@ -95,7 +95,7 @@ def test_tlv_sdk2_layout(tmp_path):
     frames = [sdk2_frame(7, 0.2), sdk2_frame(8, 0.2 + 1 / 30)]
     out = tmp_path / "uart.bin"
     assert write_tlv(out, frames, gui) == 2
-    assert not (tmp_path / "uart.bin.partial").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["uart.bin"]      # no temporary left
     packets = parse_uart(out.read_bytes())
     assert len(packets) == 2
     for (head, tlvs), frame in zip(packets, frames):
@@ -154,7 +154,7 @@ def test_tlv_points_only_and_errors(tmp_path):
     bare = DetectedPoints(**{**frame.__dict__, "range_profile": None})
     with pytest.raises(TlvError, match="logMagRange"):
         write_tlv(tmp_path / "bad.bin", [bare], GuiMonitor(log_mag_range=True))
-    assert not (tmp_path / "bad.bin").exists() and not (tmp_path / "bad.bin.partial").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["uart.bin"]      # nothing of bad.bin
     far = DetectedPoints(**{**frame.__dict__, "x": np.array([70.0, 0, 0], np.float32)})
     with pytest.raises(TlvError, match="int16"):
         write_tlv(tmp_path / "bad.bin", [far], gui)
@@ -372,4 +372,20 @@ def test_rosbag2_read_back_with_rosbags(tmp_path):
     np.testing.assert_allclose(sdk3[:, 4], [23.4, 15.1], rtol=1e-6)        # snr / 10
     assert [m.point_id for _, m in scans] == [0, 2, 0, 1]
     assert scans[1][1].doppler_bin == 10 and scans[1][1].stamp == 10
-    assert not (tmp_path / "bag.partial").exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["bag"]
+    assert sorted(p.name for p in out.iterdir()) == ["bag.db3", "metadata.yaml"]
+
+
+def test_rosbag2_interrupted_leaves_nothing(tmp_path):
+    params = DriverParams.from_radar(RADHAR_PROFILE)
+
+    def frames():
+        yield sdk2_frame(1, 0.0)
+        raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        write_rosbag2(tmp_path / "bag", frames(), params)
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "bag").mkdir()
+    with pytest.raises(FileExistsError, match="bag exists"):
+        write_rosbag2(tmp_path / "bag", [sdk2_frame()], params)

@@ -37,13 +37,14 @@ leave gaps.
 
 from __future__ import annotations
 
-import os
+import io
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+from ...fs import atomic_write_bytes, atomic_write_text
 from ..points import DetectedPoints
 from .ros_driver import DriverParams, ros_scan
 
@@ -159,30 +160,19 @@ def _message_text(rec: Recording, i: int, seq: int, frame_id: str) -> str:
             "---\n")
 
 
-def _atomic_write(path: Path, write) -> None:
-    tmp = path.with_name(path.name + ".partial")
-    try:
-        with open(tmp, "wb") as f:
-            write(f)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def write_text(path, recording: Recording, *, frame_id: str = "ti_mmwave", seq0: int = 0) -> None:
-    """Write ``recording`` as RadHAR's message text dump (crash-safe: temp file + rename)."""
-    def write(f):
-        for i in range(recording.num_points):
-            f.write(_message_text(recording, i, seq0 + i, frame_id).encode())
-    _atomic_write(Path(path), write)
+    """Write ``recording`` as RadHAR's message text dump, whole or not at all
+    (:func:`sionnafmcw.fs.atomic_write_text`)."""
+    atomic_write_text(path, "".join(_message_text(recording, i, seq0 + i, frame_id)
+                                    for i in range(recording.num_points)))
 
 
 def write_npz(path, recording: Recording) -> None:
     """Write ``recording`` as a compressed ``.npz`` with exactly the arrays of
-    ``realdata/radhar`` (crash-safe: temp file + rename)."""
-    _atomic_write(Path(path), lambda f: np.savez_compressed(f, **recording.arrays()))
+    ``realdata/radhar``, whole or not at all (:func:`sionnafmcw.fs.atomic_write_bytes`)."""
+    buffer = io.BytesIO()
+    np.savez_compressed(buffer, **recording.arrays())
+    atomic_write_bytes(path, buffer.getvalue())
 
 
 # ----------------------------------------------------------------------------------- reading

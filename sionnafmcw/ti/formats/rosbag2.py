@@ -26,7 +26,9 @@ the CPI start, which is also the bag's receive time of its messages.
 
 from __future__ import annotations
 
+import os
 import shutil
+import tempfile
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -87,15 +89,17 @@ def write_rosbag2(path, frames: Iterable[DetectedPoints], params: DriverParams, 
     """Write the frames as the driver publishes them into a new ROS 2 bag (folder ``path``,
     SQLite3 storage, bag version 8).
 
-    Crash-safe: the bag is written to ``path`` + ``.partial`` and renamed when complete.
-    Returns the number of frames read.
+    Whole or not at all: the bag is written under its own name inside a hidden sibling
+    ``.<name>.partial-*`` (what :func:`sionnafmcw.fs.sweep_leftovers` removes after a kill) and
+    renamed into place when complete. Returns the number of frames read.
     """
     from rosbags.rosbag2 import Writer
 
     path = Path(path)
-    tmp = path.with_name(path.name + ".partial")
-    if tmp.exists():
-        shutil.rmtree(tmp)
+    if path.exists():
+        raise FileExistsError(f"{path} exists; not replacing it")
+    holder = Path(tempfile.mkdtemp(prefix=f".{path.name}.partial-", dir=path.parent))
+    tmp = holder / path.name          # the bag names its database after its folder
     store = typestore()
     types = store.types
     PointCloud2, PointField, Header = (types["sensor_msgs/msg/PointCloud2"],
@@ -132,8 +136,7 @@ def write_rosbag2(path, frames: Iterable[DetectedPoints], params: DriverParams, 
                     point_step=POINT_STEP, row_step=POINT_STEP * scan.num_points,
                     data=np.frombuffer(data, np.uint8), is_dense=True)
                 writer.write(pcl_conn, t_ns, store.serialize_cdr(cloud, POINT_CLOUD_TYPE))
-        tmp.rename(path)
+        os.rename(tmp, path)
     finally:
-        if tmp.exists():
-            shutil.rmtree(tmp)
+        shutil.rmtree(holder, ignore_errors=True)
     return count

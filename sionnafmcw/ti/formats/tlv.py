@@ -57,13 +57,11 @@ CPI start, modulo :math:`2^{32}`.
 
 from __future__ import annotations
 
-import os
 import struct
 from collections.abc import Iterable
-from pathlib import Path
-
 import numpy as np
 
+from ...fs import atomic_write_bytes
 from ..points import DetectedPoints, GuiMonitor
 
 MAGIC_WORD = bytes([2, 1, 4, 3, 6, 5, 8, 7])
@@ -199,20 +197,9 @@ def frame_packet(points: DetectedPoints, gui: GuiMonitor, subframe: int = 0) -> 
 def write_tlv(path, frames: Iterable[DetectedPoints], gui: GuiMonitor) -> int:
     """Write the frames' packets, one after the other, as the UART stream file ``path``.
 
-    Crash-safe: the stream goes to ``path`` + ``.partial`` and is renamed when complete.
-    Returns the number of frames written.
+    Written whole or not at all (:func:`sionnafmcw.fs.atomic_write_bytes`). Returns the number of
+    frames written.
     """
-    path = Path(path)
-    tmp = path.with_name(path.name + ".partial")
-    count = 0
-    try:
-        with open(tmp, "wb") as f:
-            for points in frames:
-                f.write(frame_packet(points, gui))
-                count += 1
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return count
+    packets = [frame_packet(points, gui) for points in frames]
+    atomic_write_bytes(path, b"".join(packets))
+    return len(packets)
