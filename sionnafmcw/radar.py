@@ -389,10 +389,14 @@ class RadarConfig:
 
     # ------------------------------------------------------------------ (de)serialisation
     def to_dict(self) -> dict:
-        """Plain, JSON-serialisable dict with the field names of this class."""
+        """Plain, JSON-serialisable dict with the field names of this class; ``ti_processing`` only
+        when set, so that a radar from no ``.cfg`` has the same dict as stored run stores and data-set
+        specs hold for it."""
         out = {}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name == "ti_processing" and value is None:
+                continue
             if isinstance(value, np.ndarray):
                 value = value.tolist()
             elif isinstance(value, (list, dict)):

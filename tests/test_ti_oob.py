@@ -464,3 +464,22 @@ def test_range_bias_and_channel_phase_coefficients():
     wx_plain = plain.x[0] / (plain.range_index[0] * plain.range_step)
     wx_steered = steered.x[0] / (steered.range_index[0] * steered.range_step)
     assert wx_steered - wx_plain == pytest.approx(2 * m / ANGLE_FFT_SIZE, abs=1e-5)
+
+
+def test_presets_from_cfg_reads_radhars_file(capsys, tmp_path):
+    """``sionnafmcw presets --from-cfg`` on RadHAR's SDK 2.x file (line 14 used to stop it); a .cfg with
+    a broken processing line is one error line naming it."""
+    import json
+
+    from test_cli import assert_user_error, run_cli
+
+    if RADHAR_TEXT is None:
+        pytest.skip("RadHAR's .cfg is not on this machine")
+    status, out, _ = run_cli(capsys, "presets", "--from-cfg", RADHAR_CFG, "--json")
+    assert status == 0
+    (row,) = json.loads(out)
+    assert row["config"]["num_samples"] == 240 and row["config"]["ti_processing"][2] == "peakGrouping 1 0 1 1 229"
+    broken = tmp_path / "broken.cfg"
+    broken.write_text(RADHAR_TEXT.replace("peakGrouping 1 0 1 1 229", "peakGrouping 1 0 1 1"))
+    status, _, err = run_cli(capsys, "presets", "--from-cfg", broken)
+    assert_user_error(status, err, "broken.cfg", "line 14: peakGrouping takes 5")

@@ -27,8 +27,9 @@ command                   SDK 1.x/2.x (xWR14xx demo)            SDK 3.x (xWR18xx
 ``aoaFovCfg``             (none)                                5: ``subFrame minAz maxAz minEl maxEl`` (deg)
 ``cfarFovCfg``            (none)                                4: ``subFrame procDir min max`` (m, m/s)
 ``extendedMaxVelocity``   (none)                                2: ``subFrame enabled``
-``compRangeBiasAnd...``   ``rangeBias`` (m) then Re Im pairs of the virtual antennas' phase
-                          coefficients, Tx-major (both generations)
+``compRangeBias...``      ``rangeBias`` (m), then Re Im pairs    the same
+                          of the virtual antennas' phase
+                          coefficients, Tx-major
 ========================  ====================================  =============================================
 
 The generation is decided from the syntax: the first processing line whose argument count (or
