@@ -2,18 +2,20 @@ r"""The out-of-box demo's UART byte stream: one packet per frame, TLVs as ``guiM
 
 Every field is little-endian, as the device's R4F writes its structs. A packet is
 
-==========================  ===============================================================
-header (SDK 1.x/2.x xWR14xx, ``magicWord`` u16[4] = 0x0102 0x0304 0x0506 0x0708 (bytes
-36 bytes)                   ``02 01 04 03 06 05 08 07``), then u32 ``version``,
-                            ``totalPacketLen``, ``platform``, ``frameNumber``,
-                            ``timeCpuCycles``, ``numDetectedObj``, ``numTLVs``
-header (SDK 3.x, 40 bytes)  the same plus u32 ``subFrameNumber``
-each TLV                    u32 ``type``, u32 ``length`` (of the payload, header excluded),
-                            payload
-padding                     zero bytes up to a multiple of 32 bytes
-                            (``MMWDEMO_OUTPUT_MSG_SEGMENT_LEN``); ``totalPacketLen`` counts
-                            header, TLVs and padding
-==========================  ===============================================================
+=============================  ==============================================================
+part                           fields
+=============================  ==============================================================
+header, SDK 1.x/2.x: 36 B      ``magicWord`` u16[4] = 0x0102 0x0304 0x0506 0x0708 (the bytes
+                               ``02 01 04 03 06 05 08 07``), then u32 ``version``,
+                               ``totalPacketLen``, ``platform``, ``frameNumber``,
+                               ``timeCpuCycles``, ``numDetectedObj``, ``numTLVs``
+header, SDK 3.x: 40 B          the same plus u32 ``subFrameNumber``
+each TLV                       u32 ``type``, u32 ``length`` (of the payload, header
+                               excluded), payload
+padding                        zero bytes up to a multiple of 32 bytes
+                               (``MMWDEMO_OUTPUT_MSG_SEGMENT_LEN``); ``totalPacketLen``
+                               counts header, TLVs and padding
+=============================  ==============================================================
 
 TLVs and their payloads, in the order the demo sends them:
 
