@@ -155,6 +155,9 @@ def test_tlv_points_only_and_errors(tmp_path):
     with pytest.raises(TlvError, match="logMagRange"):
         write_tlv(tmp_path / "bad.bin", [bare], GuiMonitor(log_mag_range=True))
     assert sorted(p.name for p in tmp_path.iterdir()) == ["uart.bin"]      # nothing of bad.bin
+    other = DetectedPoints(**{**frame.__dict__, "platform": 0xA1843})
+    with pytest.raises(TlvError, match="platform"):     # readers size the header by the platform
+        write_tlv(tmp_path / "bad.bin", [other], gui)
     far = DetectedPoints(**{**frame.__dict__, "x": np.array([70.0, 0, 0], np.float32)})
     with pytest.raises(TlvError, match="int16"):
         write_tlv(tmp_path / "bad.bin", [far], gui)

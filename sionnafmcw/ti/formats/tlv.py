@@ -182,6 +182,10 @@ def frame_packet(points: DetectedPoints, gui: GuiMonitor, subframe: int = 0) -> 
     if points.sdk not in SDK_VERSION:
         raise TlvError(f"frame {points.frame_number}: sdk must be 2 (SDK 1.x/2.x) or 3 (SDK 3.x), "
                        f"got {points.sdk}")
+    if points.sdk == 2 and (points.platform & 0xFFFF) != 0x1443:
+        raise TlvError(f"frame {points.frame_number}: the SDK 1.x/2.x layout (36-byte header) is the xWR14xx "
+                       f"demo's, but platform is {points.platform:#x}; readers (TI's ROS driver) take the "
+                       "header length from the platform, so use platform 0xA1443 or the SDK 3.x layout")
     tlvs = frame_tlvs(points, gui)
     header_len = 36 if points.sdk == 2 else 40
     body = b"".join(struct.pack("<II", kind, len(payload)) + payload for kind, payload in tlvs)
