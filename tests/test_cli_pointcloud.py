@@ -21,7 +21,8 @@ needs_cfg = pytest.mark.skipif(not RADHAR_CFG.is_file(), reason="RadHAR's .cfg (
 def _simulate(tmp, radar, name):
     import sionnafmcw as sf
 
-    scene = registry.build("moving_plate", tmp / f"{name}-scene", num_frames=2, start_range=2.0, speed=0.5)
+    # three frames, two simulated: the third is not done
+    scene = registry.build("moving_plate", tmp / f"{name}-scene", num_frames=3, start_range=2.0, speed=0.5)
     out = tmp / f"{name}.zarr"
     sf.simulate(scene, radar, engine="pixel", out=out, progress=False, frames=[0, 1],
                 engine_options={"n_az": 32, "n_el": 16, "scattering_coefficient": 1.0})
@@ -59,6 +60,7 @@ def _bad_cfg(tmp_path) -> str:
     (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--cfg", "{bad}"], "peakGrouping"),
     (["pointcloud", "{preset}", "--out", "{tmp}/o.npz"], "--cfg"),
     (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--frames", "5"], "--frames"),
+    (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--frames", "1:3"], "not simulated"),
     (["pointcloud", "{run}", "--out", "{tmp}/o.npz", "--stamp0", "inf"], "--stamp0"),
 ])
 def test_pointcloud_bad_input_is_one_line_and_leaves_nothing(radhar_run, preset_run, tmp_path, capsys,

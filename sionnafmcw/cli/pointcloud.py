@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from .common import UserError, open_run_or_error, parse_frames, progress
+from .common import UserError, open_run_or_error, parse_frames, progress, ranges_text
 
 HELP = "The point cloud a TI board computes on chip from a run, in a real pipeline's format."
 FORMAT_HELP = {
@@ -70,6 +70,11 @@ def run(args) -> int:
     # --cfg's processing lines, or those the run's radar kept from the .cfg it was read from
     processing = run_processing(store, Path(args.cfg) if args.cfg is not None else None)
     frames = parse_frames(args.frames, store.num_frames) if args.frames is not None else None
+    if frames is not None:
+        missing = sorted(set(frames) - set(store.done_frames.tolist()))
+        if missing:
+            raise UserError(f"--frames {args.frames}: frame(s) {ranges_text(missing)} of {args.run} are not "
+                            "simulated yet; finish the run with the same 'sionnafmcw simulate' command")
     total = len(frames) if frames is not None else len(store.done_frames)
     counted = {"frames": 0, "points": 0}
 
