@@ -18,7 +18,9 @@ Where the ROS 2 driver leaves a value unset it is filled with what its ROS 1 sib
 RadHAR recorded through) computes: for SDK 1.x/2.x points the ROS 2 driver's point cloud keeps
 ``intensity`` and ``velocity`` at 0 (the assignment is commented out), here they are
 ``10 log10(peakVal + 1)`` and the Doppler velocity; for SDK 3.x points its ``RadarScan`` leaves
-``range, doppler_bin, bearing, intensity`` unset, here they are computed from the point. The
+``range, doppler_bin, bearing, intensity`` unset, here they are computed from the point, and it
+publishes each SDK 3.x ``RadarScan`` a second time before its angle test (here once, when the
+point passes, as for SDK 1.x/2.x). The
 driver's ``RadarScan`` ``seq`` stays 0 and its point-cloud header stamp is broken (whole seconds
 written as PCL microseconds); here every message is stamped with the frame's time, ``stamp0`` +
 the CPI start, which is also the bag's receive time of its messages.
