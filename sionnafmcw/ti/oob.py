@@ -435,7 +435,8 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
         peaks = [int(np.argmax(magnitude))]
         if processing.multi_object.enabled:
             other = _second_peak(magnitude, peaks[0])
-            if magnitude[other] > magnitude[peaks[0]] * processing.multi_object.threshold:
+            level = magnitude[peaks[0]] * processing.multi_object.threshold
+            if magnitude[other] > (math.floor(level) if sdk == 2 else level):     # SDK 2.x: uint32 cast
                 peaks.append(other)
         for target, k in zip((first, second), peaks):
             ks = k - ANGLE_FFT_SIZE if k > ANGLE_FFT_SIZE // 2 - 1 else k
