@@ -41,7 +41,8 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
    SDK 3.x (DSP, ``mmwavelib_log2Abs16``): :math:`|X| \approx \max(|I|,|Q|) + \tfrac38\min(|I|,|Q|)`,
    :math:`D = \sum_n \lfloor 2^8 \log_2|X_n| \rfloor \gg \log_2 N'` (log2 Q8).
 7. **CFAR** (``cfarCfg``) on :math:`D`: for the cell under test the noise sums :math:`S_L, S_R`
-   of ``noiseWin`` cells each side beyond ``guardLen`` guard cells; CA :math:`(S_L+S_R) \gg s`,
+   of the cells each side beyond ``guardLen`` guard cells (SDK 2.x's HWA: ``noiseWin >> 1`` a side,
+   ``HWAutil_configCFAR``; SDK 3.x's DSP: ``noiseWin`` a side); CA :math:`(S_L+S_R) \gg s`,
    CAGO :math:`\max(S_L,S_R) \gg s`, CASO :math:`\min(S_L,S_R) \gg s` with :math:`s` =
    ``divShift``; a detection when :math:`D > \text{noise} + T` (:meth:`CfarConfig.threshold_counts`).
    Cyclic: the windows wrap; otherwise, where a side falls off the edge, only the other side is
@@ -74,7 +75,7 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 12. **Point limit** (SDK 2.x: 100, 64 with elevation; SDK 3.x: 500) and **output**: SDK 2.x
     ``int16`` x, y, z in Q\ :math:`q` with :math:`q = \lceil\log_2(16/\Delta r)\rceil`
     (``main.c``), rounded half away from zero, ``peakVal`` the azimuth FFT's magnitude at the peak
-    (HWA ``uint16``); SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
+    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
     noise :math:`= \lfloor 60\,\bar n/256 \rfloor`, SNR :math:`= \lfloor 60 D/256 \rfloor -` noise
     (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
     from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
@@ -110,7 +111,11 @@ _Q17 = 1 << 17
 #: :math:`2^{\mathrm{srcScale} + \mathrm{dstScale} - 8}` over its halved butterfly stages (the rule
 #: that gives the range FFT :math:`1/4` with srcScale 8, dstScale 0, ``butterflyScaling 0x3``, the
 #: Doppler FFT :math:`1/(N_d/2)` with 0, 8, all stages but one, and the log2 sum Q9 from the log2
-#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8.
+#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8. The rule is
+#: inferred from the demo's parameter sets, not read in the HWA's reference manual; with it and the
+#: ADC scale of :mod:`sionnafmcw.receiver.adc`, a reflector that passes RadHAR's ``cfarCfg``
+#: threshold of 4000 has a ``peakVal`` near the uint16 limit, while RadHAR's recordings (same
+#: ``.cfg``, an SDK 1.x build for ES1 silicon) have a median ``peakVal`` of about 1000.
 AZIMUTH_HWA_GAIN = 8.0
 
 
