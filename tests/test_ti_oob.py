@@ -206,7 +206,7 @@ def test_raising_the_threshold_removes_the_point_as_the_cfar_rule_says(sdk):
         assert config.threshold_counts(sdk, n_virtual) == counts
         return processing.replace(cfar_range=config)
 
-    if sdk == 3:     # the Doppler CFAR must not decide: lower its threshold to 0 dB
+    if sdk == 3:     # the Doppler CFAR must not decide: threshold 0 dB skips it (the DSP chain)
         processing = processing.replace(cfar_doppler=CfarConfig(**{**processing.cfar_doppler.__dict__,
                                                                    "threshold": 0.0}))
     below = one_target(radar, with_threshold(margin - 1), **target)

@@ -47,9 +47,9 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
    ``divShift``; a detection when :math:`D > \text{noise} + T` (:meth:`CfarConfig.threshold_counts`).
    Cyclic: the windows wrap; otherwise, where a side falls off the edge, only the other side is
    used (CA: its sum doubled). SDK 2.x: range direction on every Doppler bin
-   (``procDirection`` is ignored by the 14xx demo); SDK 3.x (DSP path): Doppler CFAR on every
-   range bin (always cyclic), then range CFAR on the Doppler bins that had a hit; a point passes
-   both.
+   (``procDirection`` is ignored by the 14xx demo); SDK 3.x (the DSP path of the xWR68xx demo):
+   Doppler CFAR on every range bin (always cyclic), then range CFAR on the Doppler bins that had a
+   hit; a point passes both; a direction with threshold 0 is skipped.
 8. **Peak grouping**: a detection is dropped when a neighbour in the 3x3 kernel of :math:`D`
    (only the range neighbours, or only the Doppler ones, as the flags say; Doppler cyclic, the
    range rows beyond the kept window zero) is strictly greater (``MmwDemo_peakGrouping``). SDK 2.x
@@ -80,7 +80,9 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
     (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
     from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
 
-Not modelled: SDK 2.x/3.x xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
+Not modelled: the xWR18xx SDK 3.x demo's CFAR on the accelerator (``noiseWin >> 1`` cells a side,
+the cyclic flag honoured; the DSP rules above are used for every SDK 3.x device), SDK 2.x/3.x
+xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
 ``extendedMaxVelocity``, the HWA's internal 24-bit rounding inside the FFT stages (each FFT is
 computed in double precision and rounded once at its output), the quantised chirp slope of the
 range axis (:math:`<10^{-4}` relative), and the rangeBias added to the ``cfarFovCfg`` range minimum.
@@ -382,14 +384,18 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
         # the HWA lists the detections Doppler bin by Doppler bin
         dopplers, ranges = np.nonzero(passed.T)
     else:
-        dop_hits, _ = cfar(det.T, processing.cfar_doppler, sdk, n_virtual, cyclic=True)
-        dop_hits = dop_hits.T                                # [R, D]
+        # the DSP skips a direction whose threshold is 0 (``cfarcaprocdsp.c``)
+        if processing.cfar_doppler.threshold == 0:
+            dop_hits = np.ones(det.shape, bool)
+        else:
+            dop_hits, _ = cfar(det.T, processing.cfar_doppler, sdk, n_virtual, cyclic=True)
+            dop_hits = dop_hits.T                            # [R, D]
         columns = np.flatnonzero(dop_hits.any(axis=0))
         rng_hits = np.zeros_like(dop_hits)
         noise_range = np.zeros(det.shape, np.int64)
         if columns.size:
             hits, noise = cfar(det[:, columns], processing.cfar_range, sdk, n_virtual)
-            rng_hits[:, columns] = hits
+            rng_hits[:, columns] = hits if processing.cfar_range.threshold != 0 else True
             noise_range[:, columns] = noise
         passed = dop_hits & rng_hits
         ranges, dopplers = np.nonzero(passed)
