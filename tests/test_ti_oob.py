@@ -206,7 +206,7 @@ def test_raising_the_threshold_removes_the_point_as_the_cfar_rule_says(sdk):
         assert config.threshold_counts(sdk, n_virtual) == counts
         return processing.replace(cfar_range=config)
 
-    if sdk == 3:     # the Doppler CFAR must not decide: lower its threshold to 0 dB
+    if sdk == 3:     # the Doppler CFAR must not decide: threshold 0 dB skips it (the DSP chain)
         processing = processing.replace(cfar_doppler=CfarConfig(**{**processing.cfar_doppler.__dict__,
                                                                    "threshold": 0.0}))
     below = one_target(radar, with_threshold(margin - 1), **target)
@@ -305,14 +305,14 @@ def test_gui_monitor_selects_the_frame_data():
 
 
 # ---------------------------------------------------------------------------------------- run stores
-def write_run(path, radar, frames=2):
+def write_run(path, radar, frames=2, rcs=1.0, leakage_db=None):
     from sionnafmcw.store import RunStore
 
     store = RunStore.open(path, radar, frames, ["a"], {"radar": radar.to_dict(), "seed": 0})
     for f in range(frames):
         echoes = Echoes.point_targets(radar, ranges=[2.0 + 0.1 * f], radial_velocities=[0.0], azimuths=[0.1],
-                                      rcs=[1.0])
-        store.write_frame(f, synthesize(echoes, radar, frame_time=0.1 * f, rng=f), 0.1 * f,
+                                      rcs=[rcs])
+        store.write_frame(f, synthesize(echoes, radar, frame_time=0.1 * f, rng=f, leakage_db=leakage_db), 0.1 * f,
                           np.zeros((1, 3)), np.zeros((1, 3)), [0.0])
 
 
@@ -483,3 +483,27 @@ def test_presets_from_cfg_reads_radhars_file(capsys, tmp_path):
     broken.write_text(RADHAR_TEXT.replace("peakGrouping 1 0 1 1 229", "peakGrouping 1 0 1 1"))
     status, _, err = run_cli(capsys, "presets", "--from-cfg", broken)
     assert_user_error(status, err, "broken.cfg", "line 14: peakGrouping takes 5")
+
+
+def test_run_point_clouds_learn_the_dc_signature_from_the_first_chirps(tmp_path):
+    """calibDcRangeSig over a run: the signature is the mean of the first numAvg chirps (here 64:
+    21 loops of 3 slots, from the first two frames of 16 loops), learnt once and subtracted from
+    every frame: the leakage points are gone in every frame, the reflector stays."""
+    radar, processing = setup(2)
+    write_run(tmp_path / "leak.zarr", radar, frames=3, rcs=RCS[2], leakage_db=-40.0)
+    plain = list(run_point_clouds(tmp_path / "leak.zarr", processing=processing))
+    calibrated = list(run_point_clouds(tmp_path / "leak.zarr", processing=processing.replace(
+        dc_calibration=processing.dc_calibration.__class__(True, -5, 8, 64))))
+    for before, after in zip(plain, calibrated):
+        assert np.any(before.range_index * before.range_step < 0.3)
+        assert not np.any(after.range_index * after.range_step < 0.3)
+        assert np.any(np.abs(after.range_index * after.range_step - before.range_index.max() * before.range_step)
+                      <= after.range_step)
+
+
+def test_detect_refuses_a_cube_of_another_radar():
+    from sionnafmcw.ti.oob import OobError
+
+    radar, processing = setup(3)
+    with pytest.raises(OobError, match=r"does not match the radar's \[chirp, tx, rx, sample\]"):
+        detect(np.zeros((16, 3, 4, 128), np.complex64), radar, processing)

@@ -41,14 +41,15 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
    SDK 3.x (DSP, ``mmwavelib_log2Abs16``): :math:`|X| \approx \max(|I|,|Q|) + \tfrac38\min(|I|,|Q|)`,
    :math:`D = \sum_n \lfloor 2^8 \log_2|X_n| \rfloor \gg \log_2 N'` (log2 Q8).
 7. **CFAR** (``cfarCfg``) on :math:`D`: for the cell under test the noise sums :math:`S_L, S_R`
-   of ``noiseWin`` cells each side beyond ``guardLen`` guard cells; CA :math:`(S_L+S_R) \gg s`,
+   of the cells each side beyond ``guardLen`` guard cells (SDK 2.x's HWA: ``noiseWin >> 1`` a side,
+   ``HWAutil_configCFAR``; SDK 3.x's DSP: ``noiseWin`` a side); CA :math:`(S_L+S_R) \gg s`,
    CAGO :math:`\max(S_L,S_R) \gg s`, CASO :math:`\min(S_L,S_R) \gg s` with :math:`s` =
    ``divShift``; a detection when :math:`D > \text{noise} + T` (:meth:`CfarConfig.threshold_counts`).
    Cyclic: the windows wrap; otherwise, where a side falls off the edge, only the other side is
    used (CA: its sum doubled). SDK 2.x: range direction on every Doppler bin
-   (``procDirection`` is ignored by the 14xx demo); SDK 3.x (DSP path): Doppler CFAR on every
-   range bin (always cyclic), then range CFAR on the Doppler bins that had a hit; a point passes
-   both.
+   (``procDirection`` is ignored by the 14xx demo); SDK 3.x (the DSP path of the xWR68xx demo):
+   Doppler CFAR on every range bin (always cyclic), then range CFAR on the Doppler bins that had a
+   hit; a point passes both; a direction with threshold 0 is skipped.
 8. **Peak grouping**: a detection is dropped when a neighbour in the 3x3 kernel of :math:`D`
    (only the range neighbours, or only the Doppler ones, as the flags say; Doppler cyclic, the
    range rows beyond the kept window zero) is strictly greater (``MmwDemo_peakGrouping``). SDK 2.x
@@ -74,12 +75,14 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 12. **Point limit** (SDK 2.x: 100, 64 with elevation; SDK 3.x: 500) and **output**: SDK 2.x
     ``int16`` x, y, z in Q\ :math:`q` with :math:`q = \lceil\log_2(16/\Delta r)\rceil`
     (``main.c``), rounded half away from zero, ``peakVal`` the azimuth FFT's magnitude at the peak
-    (HWA ``uint16``); SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
+    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
     noise :math:`= \lfloor 60\,\bar n/256 \rfloor`, SNR :math:`= \lfloor 60 D/256 \rfloor -` noise
     (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
     from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
 
-Not modelled: SDK 2.x/3.x xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
+Not modelled: the xWR18xx SDK 3.x demo's CFAR on the accelerator (``noiseWin >> 1`` cells a side,
+the cyclic flag honoured; the DSP rules above are used for every SDK 3.x device), SDK 2.x/3.x
+xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
 ``extendedMaxVelocity``, the HWA's internal 24-bit rounding inside the FFT stages (each FFT is
 computed in double precision and rounded once at its output), the quantised chirp slope of the
 range axis (:math:`<10^{-4}` relative), and the rangeBias added to the ``cfarFovCfg`` range minimum.
@@ -110,7 +113,11 @@ _Q17 = 1 << 17
 #: :math:`2^{\mathrm{srcScale} + \mathrm{dstScale} - 8}` over its halved butterfly stages (the rule
 #: that gives the range FFT :math:`1/4` with srcScale 8, dstScale 0, ``butterflyScaling 0x3``, the
 #: Doppler FFT :math:`1/(N_d/2)` with 0, 8, all stages but one, and the log2 sum Q9 from the log2
-#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8.
+#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8. The rule is
+#: inferred from the demo's parameter sets, not read in the HWA's reference manual; with it and the
+#: ADC scale of :mod:`sionnafmcw.receiver.adc`, a reflector that passes RadHAR's ``cfarCfg``
+#: threshold of 4000 has a ``peakVal`` near the uint16 limit, while RadHAR's recordings (same
+#: ``.cfg``, an SDK 1.x build for ES1 silicon) have a median ``peakVal`` of about 1000.
 AZIMUTH_HWA_GAIN = 8.0
 
 
@@ -377,14 +384,18 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
         # the HWA lists the detections Doppler bin by Doppler bin
         dopplers, ranges = np.nonzero(passed.T)
     else:
-        dop_hits, _ = cfar(det.T, processing.cfar_doppler, sdk, n_virtual, cyclic=True)
-        dop_hits = dop_hits.T                                # [R, D]
+        # the DSP skips a direction whose threshold is 0 (``cfarcaprocdsp.c``)
+        if processing.cfar_doppler.threshold == 0:
+            dop_hits = np.ones(det.shape, bool)
+        else:
+            dop_hits, _ = cfar(det.T, processing.cfar_doppler, sdk, n_virtual, cyclic=True)
+            dop_hits = dop_hits.T                            # [R, D]
         columns = np.flatnonzero(dop_hits.any(axis=0))
         rng_hits = np.zeros_like(dop_hits)
         noise_range = np.zeros(det.shape, np.int64)
         if columns.size:
             hits, noise = cfar(det[:, columns], processing.cfar_range, sdk, n_virtual)
-            rng_hits[:, columns] = hits
+            rng_hits[:, columns] = hits if processing.cfar_range.threshold != 0 else True
             noise_range[:, columns] = noise
         passed = dop_hits & rng_hits
         ranges, dopplers = np.nonzero(passed)
@@ -435,7 +446,8 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
         peaks = [int(np.argmax(magnitude))]
         if processing.multi_object.enabled:
             other = _second_peak(magnitude, peaks[0])
-            if magnitude[other] > magnitude[peaks[0]] * processing.multi_object.threshold:
+            level = magnitude[peaks[0]] * processing.multi_object.threshold
+            if magnitude[other] > (math.floor(level) if sdk == 2 else level):     # SDK 2.x: uint32 cast
                 peaks.append(other)
         for target, k in zip((first, second), peaks):
             ks = k - ANGLE_FFT_SIZE if k > ANGLE_FFT_SIZE // 2 - 1 else k
