@@ -129,6 +129,11 @@ class RadarConfig:
         Receiver gain from the antenna port to the ADC (dB; TI's ``rxGain``), default 30 dB.
     iq_imbalance : dict, optional
         ``{"gain_db": ..., "phase_deg": ...}`` (:mod:`sionnafmcw.receiver.iq_imbalance`); None: none.
+    ti_processing : list of str, optional
+        The processing lines (``guiMonitor``, ``cfarCfg``, ...) of the TI ``.cfg`` the radar was read
+        from, as written: they change no signal, but a run store keeps them with the radar so
+        that the board's own on-chip chain can be run on it (:mod:`sionnafmcw.ti.oob`); None
+        for a radar that came from no such ``.cfg``.
 
     Notes
     -----
@@ -158,6 +163,7 @@ class RadarConfig:
     adc_full_scale: float = 1e-3
     rx_gain: float = 30.0
     iq_imbalance: dict = None
+    ti_processing: list = None
 
     def __post_init__(self):
         self.tx_positions = np.atleast_2d(np.asarray(self.tx_positions, dtype=float))
@@ -167,6 +173,9 @@ class RadarConfig:
         self.tx_order = [int(i) for i in self.tx_order]
         self.num_samples = int(self.num_samples)
         self.num_chirps = int(self.num_chirps)
+        if self.ti_processing is not None:
+            _check_field_type("ti_processing", self.ti_processing)
+            self.ti_processing = [str(line) for line in self.ti_processing] or None
         self._normalise_receiver()
         self.validate()
 
@@ -380,10 +389,14 @@ class RadarConfig:
 
     # ------------------------------------------------------------------ (de)serialisation
     def to_dict(self) -> dict:
-        """Plain, JSON-serialisable dict with the field names of this class."""
+        """Plain, JSON-serialisable dict with the field names of this class; ``ti_processing`` only
+        when set, so that a radar from no ``.cfg`` has the same dict as stored run stores and data-set
+        specs hold for it."""
         out = {}
         for f in dataclasses.fields(self):
             value = getattr(self, f.name)
+            if f.name == "ti_processing" and value is None:
+                continue
             if isinstance(value, np.ndarray):
                 value = value.tolist()
             elif isinstance(value, (list, dict)):
@@ -526,6 +539,10 @@ def _check_field_type(name: str, value) -> None:
         if not isinstance(value, dict):
             raise RadarConfigError(
                 f"RadarConfig.iq_imbalance must be a dict {{gain_db, phase_deg}} or null, got {value!r}")
+    elif name == "ti_processing" and value is not None:
+        if not isinstance(value, (list, tuple)) or not all(isinstance(line, str) for line in value):
+            raise RadarConfigError(f"RadarConfig.ti_processing must be a list of .cfg lines (strings) or null, "
+                                   f"got {value!r}")
     elif name == "tx_order" and value is not None:
         if (not isinstance(value, (list, tuple, np.ndarray))
                 or not all(_is_real(i) and float(i) == int(i) for i in value)):

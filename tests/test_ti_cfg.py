@@ -143,12 +143,17 @@ def test_visualiser_header_figures_of_profile_3d():
 
 
 def test_ignored_commands_are_listed_with_their_lines():
+    """Ignored: what changes neither the RF signal nor the detected points; the processing lines
+    are read, not ignored."""
     cfg = parse_ti_cfg(PROFILE_3D_18XX)
     ignored = dict((command, line) for line, command in cfg.ignored)
     lines = PROFILE_3D_18XX.splitlines()
-    for command in ("guiMonitor", "cfarCfg", "lvdsStreamCfg", "calibData", "lowPower"):
+    for command in ("lvdsStreamCfg", "calibData", "lowPower", "CQRxSatMonitor", "measureRangeBiasAndRxChanPhase"):
         assert command in IGNORED_COMMANDS
         assert lines[ignored[command] - 1].startswith(command)
+    for command in ("guiMonitor", "cfarCfg", "multiObjBeamForming", "aoaFovCfg", "cfarFovCfg"):
+        assert command not in IGNORED_COMMANDS and command not in ignored
+    assert cfg.processing.sdk == 3 and cfg.processing.cfar_doppler.threshold == 15
     assert cfg.frame_period == pytest.approx(0.1) and cfg.rx_gain_db == 30
 
 

@@ -9,12 +9,13 @@
     sionnafmcw simulate SCENE --radar PRESET|FILE --out RUN.zarr [--engine NAME] ...
     sionnafmcw plot RUN --out DIR [--kind rd|ra|doppler-time|micro-doppler|scene ...] [--frame N]
     sionnafmcw export RUN --out DIR [--format dca1000|npz] [--board B]   a TI raw capture of a run
+    sionnafmcw pointcloud RUN --out PATH [--cfg FILE] [--format npz|radhar|tlv|rosbag2]   the TI board's point cloud
     sionnafmcw validate NAME [ARGS ...]                          a validation experiment
     sionnafmcw dataset SPEC --out DIR [--scheduler ADDRESS | --workers N]
     sionnafmcw check RUN.zarr                                    verify every done frame; mark unreadable ones
 
 Modules: :mod:`.presets`, :mod:`.scene`, :mod:`.simulate`, :mod:`.plot` (figure kinds as a
-table), :mod:`.export`, :mod:`.validate`, :mod:`.dataset`, :mod:`.check`; :mod:`.common` holds the shared
+table), :mod:`.export`, :mod:`.pointcloud`, :mod:`.validate`, :mod:`.dataset`, :mod:`.check`; :mod:`.common` holds the shared
 parsers and loaders.
 Each has ``add_parser(add)`` and the function(s) it runs.
 
@@ -32,13 +33,13 @@ from __future__ import annotations
 import argparse
 import sys
 
-from . import check, dataset, export, plot, presets, scene, simulate, validate
+from . import check, dataset, export, plot, pointcloud, presets, scene, simulate, validate
 from .common import PROG, Parser, UserError, formatter, one_line, parse_frames, user_error_types
 
 EXIT_USER_ERROR = 2
 EXIT_INTERRUPTED = 130
 #: Subcommand modules, in the order ``--help`` lists them.
-SUBCOMMANDS = (presets, scene, simulate, plot, export, validate, dataset, check)
+SUBCOMMANDS = (presets, scene, simulate, plot, export, pointcloud, validate, dataset, check)
 EPILOG = """\
 example:
   sionnafmcw scene build moving_plate scenes/plate

@@ -205,6 +205,7 @@ LIBRARY_USER_ERRORS = (
     ("sionnafmcw.engines.base", "EngineError"),  # every engine's errors, scene loading included
     ("sionnafmcw.dataset.spec", "SpecError"), ("sionnafmcw.dataset.index", "DatasetError"),
     ("sionnafmcw.ti.dca1000", "CaptureError"),
+    ("sionnafmcw.ti.oob", "OobError"), ("sionnafmcw.ti.formats.tlv", "TlvError"), ("sionnafmcw.ti.formats.radhar", "RadharFormatError"),
 )
 
 

@@ -39,12 +39,20 @@ power. The receiver (:mod:`sionnafmcw.ti.devices`): ``hpfCornerFreq1``/``hpfCorn
 7:6, e.g. 158 = 30 dB), ``adcCfg 2`` the 16-bit ADC, and the phase noise is the device data
 sheet's for the band the chirp sweeps.
 
-Commands that set up the demo's processing, monitoring or output (:data:`IGNORED_COMMANDS`,
-e.g. ``guiMonitor``, ``cfarCfg``) do not change the RF signal and are skipped (listed in
-:attr:`TiCfg.ignored`); the session commands (``sensorStop``, ``flushCfg``, ``sensorStart``) are
+The commands that set up the out-of-box demo's detection chain (``guiMonitor``, ``cfarCfg``,
+``peakGrouping``, ``multiObjBeamForming``, ... :data:`~sionnafmcw.ti.processing.CHAIN_COMMANDS`) do
+not change the RF signal: they are read into :attr:`TiCfg.processing` (a
+:class:`~sionnafmcw.ti.processing.TiProcessing`, SDK 1.x/2.x or 3.x syntax) and kept, as written, by
+the radar (``RadarConfig.ti_processing``), so that a run store can rebuild the demo's chain.
+Commands that change neither the RF signal nor the detected points (monitors, calibration
+measurement, LVDS output: :data:`IGNORED_COMMANDS`) are skipped and listed in
+:attr:`TiCfg.ignored`; the session commands (``sensorStop``, ``flushCfg``, ``sensorStart``) are
 accepted. Any other command, or an RF set-up this simulator cannot reproduce (advanced frames,
 BPM, per-chirp variations, several transmitters in one chirp, real ADC data), raises
 :class:`TiCfgError` naming the line number and the command.
+
+Without a ``board``, a ``.cfg`` in SDK 1.x/2.x processing syntax (an xWR14xx demo) runs on the
+IWR1443BOOST; otherwise the start frequency decides (60-64 GHz IWR6843ISK, 76-81 GHz AWR1843BOOST).
 """
 
 from __future__ import annotations
@@ -57,10 +65,8 @@ import numpy as np
 
 from ..radar import RadarConfig, RadarConfigError, _ti_three_tx_layout
 from . import devices as ti_receiver
-
-
-class TiCfgError(RadarConfigError):
-    """A ``.cfg`` that cannot be read or written; the message names the source, line and command."""
+from .cfg_text import TiCfgError, commands, text_and_source
+from .processing import CHAIN_COMMANDS, NON_CHAIN_COMMANDS, parse_processing
 
 
 # ---------------------------------------------------------------------------------------- boards
@@ -103,16 +109,9 @@ BOARDS = {
     "iwr1443boost": Board("iwr1443boost", "xWR14xx", "ti-iwr1443boost", 77e9, "IWR1443"),
 }
 
-#: Commands of TI's demo .cfg files that do not change the transmitted or received RF signal
-#: (processing, detection, calibration, monitoring, GUI and LVDS output settings): skipped.
-IGNORED_COMMANDS = (
-    "guiMonitor", "cfarCfg", "cfarFovCfg", "aoaFovCfg", "multiObjBeamForming", "clutterRemoval",
-    "calibDcRangeSig", "extendedMaxVelocity", "lvdsStreamCfg", "compRangeBiasAndRxChanPhase",
-    "measureRangeBiasAndRxChanPhase", "CQRxSatMonitor", "CQSigImgMonitor", "analogMonitor",
-    "calibData", "nearFieldCfg", "rangeLimitCfg", "lowPower", "idlePowerCycle", "staticBoundaryBox",
-    "boundaryBox", "sensorPosition", "gatingParam", "stateParam", "allocationParam", "maxAcceleration",
-    "trackingCfg", "presenceBoundaryBox", "fovCfg", "compressionCfg", "dbscanCfg", "clusterCfg",
-)
+#: Commands of TI's demo .cfg files that change neither the RF signal nor the detected points
+#: (monitoring, calibration measurement, LVDS output, power modes, lab tracker settings): skipped.
+IGNORED_COMMANDS = NON_CHAIN_COMMANDS
 #: Session commands: accepted, no effect on the configuration.
 SESSION_COMMANDS = ("sensorStop", "flushCfg", "sensorStart", "baudRate")
 #: Commands this reader understands.
@@ -164,6 +163,8 @@ class TiCfg:
     chirps: dict = field(default_factory=dict)      # chirp index -> tx enable mask
     frame: dict = field(default_factory=dict)
     ignored: list = field(default_factory=list)     # (line number, command)
+    processing_lines: list = field(default_factory=list)   # (line number, command, [arguments])
+    processing: object = None                       # TiProcessing, or None without processing lines
     comments: dict = field(default_factory=dict)    # "% key: value" comments (our board / name tags)
     source: str = "<text>"
 
@@ -189,36 +190,18 @@ _PROFILE_FIELDS = ("profile_id", "start_freq_ghz", "idle_us", "adc_start_us", "r
 _PROFILE_INT = {"profile_id", "tx_out_power", "tx_phase_shifter", "num_samples", "hpf1", "hpf2"}
 
 
-def _text_and_source(path_or_text):
-    if isinstance(path_or_text, Path) or (isinstance(path_or_text, str) and "\n" not in path_or_text
-                                          and (path_or_text.strip().lower().endswith(".cfg")
-                                               or Path(path_or_text).is_file())):
-        path = Path(path_or_text)
-        try:
-            return path.read_text(encoding="utf-8", errors="replace"), str(path)
-        except OSError as err:
-            raise TiCfgError(f"{path}: cannot read the TI .cfg file ({err.strerror or err})") from None
-    return str(path_or_text), "<cfg text>"
-
-
 def parse_ti_cfg(path_or_text) -> TiCfg:
     """Parse a ``.cfg`` (a path, or the text itself) into a :class:`TiCfg`; see the module docstring."""
-    text, source = _text_and_source(path_or_text)
+    text, source = text_and_source(path_or_text)
     cfg = TiCfg(source=source)
     seen = set()
 
-    for number, raw in enumerate(text.splitlines(), start=1):
-        line = raw.strip()
-        if not line:
-            continue
-        if line.startswith("%"):
-            body = line.lstrip("%").strip()
+    for number, command, args, body in commands(text):
+        if command is None:
             for key in (_BOARD_COMMENT, _NAME_COMMENT):
                 if body.startswith(key + ":"):
                     cfg.comments[key] = body.split(":", 1)[1].strip()
             continue
-        words = line.split("%", 1)[0].split()
-        command, args = words[0], words[1:]
         where = f"{source}, line {number}: {command}"
 
         def numbers(count_options, kinds=None):
@@ -233,6 +216,9 @@ def parse_ti_cfg(path_or_text) -> TiCfg:
             raise TiCfgError(f"{where}: {why} is not supported by this simulator (TDM-MIMO, one profile, "
                              "complex 16-bit ADC data)")
 
+        if command in CHAIN_COMMANDS:
+            cfg.processing_lines.append((number, command, args))
+            continue
         if command in IGNORED_COMMANDS:
             cfg.ignored.append((number, command))
             continue
@@ -240,7 +226,8 @@ def parse_ti_cfg(path_or_text) -> TiCfg:
             continue
         if command not in RF_COMMANDS:
             raise TiCfgError(f"{where}: unknown command; known RF commands: {', '.join(RF_COMMANDS)}; "
-                             f"ignored (non-RF) commands: {', '.join(IGNORED_COMMANDS)}")
+                             f"processing commands: {', '.join(CHAIN_COMMANDS)}; "
+                             f"ignored commands: {', '.join(IGNORED_COMMANDS)}")
 
         if command == "dfeDataOutputMode":
             (mode,) = numbers((1,))
@@ -291,6 +278,7 @@ def parse_ti_cfg(path_or_text) -> TiCfg:
     for command in ("channelCfg", "profileCfg", "chirpCfg", "frameCfg"):
         if command not in seen:
             raise TiCfgError(f"{source}: no {command} command; a .cfg needs channelCfg, profileCfg, chirpCfg and frameCfg")
+    cfg.processing = parse_processing(cfg.processing_lines, source)
     return cfg
 
 
@@ -319,7 +307,8 @@ def radar_from_ti_cfg(cfg: TiCfg, board=None) -> RadarConfig:
         if _BOARD_COMMENT in cfg.comments:
             board = cfg.comments[_BOARD_COMMENT]
         else:
-            board = "iwr6843isk" if p["start_freq_ghz"] < 70 else "awr1843boost"
+            board = ("iwr6843isk" if p["start_freq_ghz"] < 70 else
+                     "iwr1443boost" if cfg.processing is not None and cfg.processing.sdk == 2 else "awr1843boost")
     board = board_of(board)
     board_tx, board_rx = board.layout()
     preset = RadarConfig.preset(board.preset)
@@ -386,6 +375,7 @@ def radar_from_ti_cfg(cfg: TiCfg, board=None) -> RadarConfig:
             adc_bits=16,
             adc_full_scale=preset.adc_full_scale,
             rx_gain=float(int(p["rx_gain"]) & 0x3F),
+            ti_processing=[" ".join([c] + a) for _, c, a in cfg.processing_lines] or None,
         )
     except RadarConfigError as err:
         raise TiCfgError(f"{src}: profileCfg/frameCfg give an impossible radar: {err}") from None
@@ -431,7 +421,8 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
     rx_gain_db : float, optional
         ``rxGain`` of ``profileCfg`` (dB); default ``radar.rx_gain``.
     ignored : list of str, optional
-        Extra (non-RF) command lines to append, e.g. ``["guiMonitor -1 1 1 0 0 0 1"]``.
+        Extra (non-RF) command lines to append after the radar's own processing lines
+        (``radar.ti_processing``), e.g. ``["lvdsStreamCfg -1 0 0 0"]``.
 
     Notes
     -----
@@ -481,6 +472,7 @@ def write_ti_cfg(radar: RadarConfig, board=None, frame_period: float = 0.1, num_
     for slot, tx in enumerate(radar.tx_order):
         lines.append(f"chirpCfg {slot} {slot} 0 0 0 0 0 {1 << tx_index[tx]}")
     lines.append(f"frameCfg 0 {radar.num_tx - 1} {radar.num_chirps} {int(num_frames)} {_num(frame_period * 1e3, 6)} 1 0")
+    lines.extend(radar.ti_processing or [])
     lines.extend(ignored or [])
     lines.append("sensorStart")
     return "\n".join(lines) + "\n"

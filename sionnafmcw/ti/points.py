@@ -40,7 +40,7 @@ class GuiMonitor:
 
 @dataclass(frozen=True)
 class DetectedPoints:
-    """One frame of the OOB demo's output. Point arrays are ``[N]`` (N <= the demo's point limit).
+    r"""One frame of the OOB demo's output. Point arrays are ``[N]`` (N <= the demo's point limit).
 
     Parameters
     ----------
@@ -61,13 +61,16 @@ class DetectedPoints:
     doppler_index : int16 ``[N]``
         Signed Doppler bin (0 = zero velocity; negative approaching).
     peak_value : uint16 ``[N]``
-        The detection matrix at the point (SDK 1.x/2.x ``peakVal``: sum over virtual antennas of
-        log2 magnitudes in the SDK's fixed point).
+        SDK 1.x/2.x ``peakVal``: the magnitude of the azimuth FFT at the point's angle bin, as the
+        xWR14xx HWA outputs it (``MmwDemo_angleEstimationAzimElev``); SDK 3.x (not sent by the
+        device): the detection matrix at the point (sum over virtual antennas of log2 magnitudes,
+        Q8).
     snr_db, noise_db : float32 ``[N]``
         SDK 3.x side info (TLV 7), dB on the 0.1 dB grid the device sends; for SDK 1.x/2.x the same
         quantities from the detection matrix (not sent by the device).
     xyz_q_format : int
-        SDK 1.x/2.x: the number of fractional bits of x, y, z (TLV 1's ``xyzQFormat``).
+        SDK 1.x/2.x: the number of fractional bits of x, y, z (TLV 1's ``xyzQFormat``,
+        :math:`\lceil\log_2(16/\Delta r)\rceil`); 0 for SDK 3.x (float output).
     range_step, doppler_step : float
         Range bin (m) and Doppler bin (m/s) of the demo's FFT grids.
     range_profile : uint16 ``[n_range]`` or None

@@ -1,0 +1,559 @@
+r"""The mmWave SDK out-of-box (OOB) demo's on-chip chain: a beat cube in, the device's point cloud out.
+
+:func:`detect` runs, on one frame of the run store's ``iq``, what a TI board running the demo
+computes from the ``.cfg``'s processing lines (:class:`~sionnafmcw.ti.processing.TiProcessing`),
+per SDK generation; :func:`run_point_clouds` does it for every frame of a run store. The result is
+a :class:`~sionnafmcw.ti.points.DetectedPoints` on the device's output grid.
+
+What each step follows
+----------------------
+Read in the SDK 2.1.0.4 xWR14xx demo (``demo/xwr14xx/mmw``: ``data_path.c``,
+``post_processing.c``, ``config_hwa_util.c``, ``main.c``) for ``sdk == 2`` and in the SDK 3.x
+xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``, ``aoaproc*``,
+``mss_main.c``) for ``sdk == 3`` (design notes, section 8):
+
+1. **ADC codes.** The cube (:math:`\sqrt{\mathrm W}` at the receiver input, tx in physical order)
+   becomes the device's 16-bit I/Q words with the radar's own scale,
+   :math:`c = 10^{G/20}(2^{15}-1)/\sqrt{P_{FS}}` words per :math:`\sqrt{\mathrm W}`
+   (:func:`sionnafmcw.receiver.adc.words_per_sqrt_watt`, the scale of the DCA1000 export:
+   rounded, saturated), and the transmitters are put in firing order (``tx_order``): the device's
+   virtual antenna :math:`i = q N_{rx} + n` is Rx :math:`n` of the chirp in slot :math:`q`.
+2. **Range FFT** of :math:`N_r = 2^{\lceil\log_2 N_s\rceil}` points with the demo's Blackman
+   window (``MmwDemo_genWindow``: :math:`w_n = 0.42 - 0.5\cos\phi n + 0.08\cos 2\phi n`,
+   :math:`\phi = 2\pi/(N_s-1)`, in Q17, saturated below 1) and the HWA's scaling of the first two
+   butterfly stages (``butterflyScaling 0x3``: the sum divided by 4), rounded and saturated to
+   ``int16``. (SDK 3.x runs its range FFT on the accelerator too; its scaling was not read, the
+   xWR14xx one is used.)
+3. **DC range calibration** (``calibDcRangeSig``): the mean over the first ``numAvg`` chirps of
+   the run of range bins ``negBin..posBin`` per virtual antenna is subtracted from every chirp
+   (:func:`run_point_clouds` learns it from the run's first frames as the device does after
+   ``sensorStart``; :func:`detect` alone learns it from its own frame).
+4. **Static clutter removal** (``clutterRemoval 1``): per range bin and virtual antenna, the
+   complex mean over the frame's chirps is subtracted.
+5. **Doppler FFT** of :math:`N_d = 2^{\lceil\log_2 L\rceil}` points over the :math:`L` chirps of
+   each virtual antenna with the demo's Hanning window (Q17, :math:`\phi = 2\pi/(L-1)`; SDK 3.x:
+   rectangular at :math:`L \le 4`) and every butterfly stage but the first scaled
+   (``(dopplerFftSize-1) >> 1``: the sum divided by :math:`N_d/2`), rounded, saturated.
+6. **Detection matrix** (``uint16``, Doppler unshifted), :math:`N` virtual antennas,
+   :math:`N' = 2^{\lceil\log_2 N\rceil}`:
+   SDK 2.x (HWA): :math:`D = \lfloor \sum_n \lfloor 2^9 \log_2|X_n| \rfloor / N' \rfloor`
+   (log2 Q9, the unit of the 14xx ``thresholdScale``);
+   SDK 3.x (DSP, ``mmwavelib_log2Abs16``): :math:`|X| \approx \max(|I|,|Q|) + \tfrac38\min(|I|,|Q|)`,
+   :math:`D = \sum_n \lfloor 2^8 \log_2|X_n| \rfloor \gg \log_2 N'` (log2 Q8).
+7. **CFAR** (``cfarCfg``) on :math:`D`: for the cell under test the noise sums :math:`S_L, S_R`
+   of the cells each side beyond ``guardLen`` guard cells (SDK 2.x's HWA: ``noiseWin >> 1`` a side,
+   ``HWAutil_configCFAR``; SDK 3.x's DSP: ``noiseWin`` a side); CA :math:`(S_L+S_R) \gg s`,
+   CAGO :math:`\max(S_L,S_R) \gg s`, CASO :math:`\min(S_L,S_R) \gg s` with :math:`s` =
+   ``divShift``; a detection when :math:`D > \text{noise} + T` (:meth:`CfarConfig.threshold_counts`).
+   Cyclic: the windows wrap; otherwise, where a side falls off the edge, only the other side is
+   used (CA: its sum doubled). SDK 2.x: range direction on every Doppler bin
+   (``procDirection`` is ignored by the 14xx demo); SDK 3.x (the DSP path of the xWR68xx demo):
+   Doppler CFAR on every range bin (always cyclic), then range CFAR on the Doppler bins that had a
+   hit; a point passes both; a direction with threshold 0 is skipped.
+8. **Peak grouping**: a detection is dropped when a neighbour in the 3x3 kernel of :math:`D`
+   (only the range neighbours, or only the Doppler ones, as the flags say; Doppler cyclic, the
+   range rows beyond the kept window zero) is strictly greater (``MmwDemo_peakGrouping``). SDK 2.x
+   also keeps only range bins ``startRangeIdx..endRangeIdx``.
+9. **FOV** (SDK 3.x ``cfarFovCfg``): range bins ``int(min/dr + 0.5)..int(max/dr + 0.5)``, signed
+   Doppler bins likewise; ``aoaFovCfg``: :math:`\sin` of the azimuth and elevation limits against
+   :math:`W_x, W_z`.
+10. **Angle.** Doppler compensation of the TDM slots, :math:`e^{-j 2\pi q\, d_s/(M N_d)}` for
+    slot :math:`q` and signed Doppler bin :math:`d_s` (``MmwDemo_dopplerCompensation``); the
+    ``compRangeBiasAndRxChanPhase`` coefficients (Q15) multiply the virtual antennas; the azimuth
+    row is zero-padded to 64 and transformed, :math:`k` the strongest bin, :math:`k_s` signed,
+    :math:`W_x = 2k_s/64`. With an elevated transmitter,
+    :math:`W_z = -\arg(E_k A_k^*)/\pi` (wrapped to :math:`[-1,1)`), :math:`E` the 64-point FFT of
+    the raised row placed at its own azimuth positions (the SDK's
+    :math:`\arg(A_k E_k^*)/\pi + 2W_x` for its board, whose raised row starts two elements in).
+    The antennas are placed by their positions in the radar's array (the SDK assumes its boards'
+    layout; for the boards' own chirp orders the two agree). :math:`R = r\,\Delta r - b`,
+    :math:`x = R W_x`, :math:`z = R W_z`, :math:`y = \sqrt{R^2-x^2-z^2}` (SDK 2.x: 0 when
+    negative; SDK 3.x: the point is dropped); :math:`v = d_s \Delta v`.
+11. **Multi-object beamforming**: from the first peak walk down both flanks of the azimuth
+    spectrum; the largest bin outside them gives a second point at the same range and Doppler when
+    it exceeds ``threshold`` times the first (``MmwDemo_angleEstimationAzimElev``).
+12. **Point limit** (SDK 2.x: 100, 64 with elevation; SDK 3.x: 500) and **output**: SDK 2.x
+    ``int16`` x, y, z in Q\ :math:`q` with :math:`q = \lceil\log_2(16/\Delta r)\rceil`
+    (``main.c``), rounded half away from zero, ``peakVal`` the azimuth FFT's magnitude at the peak
+    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
+    noise :math:`= \lfloor 60\,\bar n/256 \rfloor`, SNR :math:`= \lfloor 60 D/256 \rfloor -` noise
+    (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
+    from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
+
+Not modelled: the xWR18xx SDK 3.x demo's CFAR on the accelerator (``noiseWin >> 1`` cells a side,
+the cyclic flag honoured; the DSP rules above are used for every SDK 3.x device), SDK 2.x/3.x
+xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
+``extendedMaxVelocity``, the HWA's internal 24-bit rounding inside the FFT stages (each FFT is
+computed in double precision and rounded once at its output), the quantised chirp slope of the
+range axis (:math:`<10^{-4}` relative), and the rangeBias added to the ``cfarFovCfg`` range minimum.
+Output axes are the SDK's: :math:`x` right (sionnafmcw's :math:`-y`), :math:`y` boresight
+(:math:`+x`), :math:`z` up; :math:`v > 0` receding.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..constants import SPEED_OF_LIGHT
+from ..receiver.adc import words_per_sqrt_watt
+from .cfg import board_for_radar
+from .cfg_text import TiCfgError
+from .points import DetectedPoints
+from .processing import MAX_POINTS_ELEVATION_SDK2, TiProcessing, processing_from_cfg, processing_from_lines
+
+#: Azimuth (and elevation) FFT size of the demos.
+ANGLE_FFT_SIZE = 64
+#: The UART header's ``platform`` word per board device.
+PLATFORMS = {"IWR1443": 0xA1443, "AWR1843": 0xA1843, "IWR6843": 0xA6843}
+
+_Q17 = 1 << 17
+#: SDK 2.x: the HWA's azimuth FFT gain. An HWA FFT paramset scales by
+#: :math:`2^{\mathrm{srcScale} + \mathrm{dstScale} - 8}` over its halved butterfly stages (the rule
+#: that gives the range FFT :math:`1/4` with srcScale 8, dstScale 0, ``butterflyScaling 0x3``, the
+#: Doppler FFT :math:`1/(N_d/2)` with 0, 8, all stages but one, and the log2 sum Q9 from the log2
+#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8. The rule is
+#: inferred from the demo's parameter sets, not read in the HWA's reference manual; with it and the
+#: ADC scale of :mod:`sionnafmcw.receiver.adc`, a reflector that passes RadHAR's ``cfarCfg``
+#: threshold of 4000 has a ``peakVal`` near the uint16 limit, while RadHAR's recordings (same
+#: ``.cfg``, an SDK 1.x build for ES1 silicon) have a median ``peakVal`` of about 1000.
+AZIMUTH_HWA_GAIN = 8.0
+
+
+class OobError(ValueError):
+    """The chain cannot run on this cube or radar; the message says what to change."""
+
+
+# ---------------------------------------------------------------------------------------- windows
+def blackman_q17(n: int) -> np.ndarray:
+    """The demo's Blackman window of ``n`` samples in Q17 (``MmwDemo_genWindow``), as a fraction."""
+    phi = 2 * np.pi / (n - 1)
+    k = np.arange(n)
+    w = np.floor(_Q17 * (0.42 - 0.5 * np.cos(phi * k) + 0.08 * np.cos(2 * phi * k)) + 0.5)
+    return np.minimum(w, _Q17 - 1) / _Q17
+
+
+def hanning_q17(n: int) -> np.ndarray:
+    """The demo's Hanning window of ``n`` chirps in Q17 (``MmwDemo_genWindow``), as a fraction."""
+    phi = 2 * np.pi / (n - 1)
+    w = np.floor(_Q17 * 0.5 * (1 - np.cos(phi * np.arange(n))) + 0.5)
+    return np.minimum(w, _Q17 - 1) / _Q17
+
+
+def _next_pow2(n: int) -> int:
+    return 1 << math.ceil(math.log2(max(int(n), 1)))
+
+
+def _saturate16(x: np.ndarray) -> np.ndarray:
+    """Round I and Q to integers and saturate them to int16 (kept complex128)."""
+    re = np.clip(np.rint(x.real), -32768, 32767)
+    im = np.clip(np.rint(x.imag), -32768, 32767)
+    return re + 1j * im
+
+
+# ---------------------------------------------------------------------------------------- geometry
+class _Array:
+    """The device's virtual array: slots in firing order, azimuth and elevation rows on a lambda/2 grid."""
+
+    def __init__(self, radar):
+        spacing = np.diff(np.sort(radar.rx_positions[:, 1]))
+        d = float(np.min(spacing)) if spacing.size else SPEED_OF_LIGHT / radar.fc / 2
+        tx = radar.tx_positions[radar.tx_order]              # firing order
+        virtual = (tx[:, None, :] + radar.rx_positions[None, :, :]).reshape(-1, 3)
+        column = (virtual[:, 1] - virtual[:, 1].min()) / d
+        row = (virtual[:, 2] - virtual[:, 2].min()) / d
+        if np.any(np.abs(column - np.rint(column)) > 1e-3) or np.any(np.abs(row - np.rint(row)) > 1e-3):
+            raise OobError(f"radar {radar.name!r}: the virtual array is not on a half-wavelength grid "
+                           "(the SDK's angle FFT needs the TI boards' layout)")
+        column, row = np.rint(column).astype(int), np.rint(row).astype(int)
+        if np.any(row > 1):
+            raise OobError(f"radar {radar.name!r}: virtual elements on more than two rows; the SDK's angle "
+                           "estimation has one azimuth row and one raised row")
+        self.num_virtual = virtual.shape[0]
+        self.azimuth = np.flatnonzero(row == 0)
+        self.elevation = np.flatnonzero(row == 1)
+        self.azimuth = self.azimuth[np.argsort(column[self.azimuth], kind="stable")]
+        self.elevation = self.elevation[np.argsort(column[self.elevation], kind="stable")]
+        start = column[self.azimuth].min()
+        self.azimuth_column = column[self.azimuth] - start
+        self.elevation_column = column[self.elevation] - start
+        if len(set(self.azimuth_column.tolist())) != self.azimuth.size:
+            raise OobError(f"radar {radar.name!r}: two azimuth virtual elements coincide")
+        if self.azimuth_column.max() >= ANGLE_FFT_SIZE or (self.elevation.size and
+                                                            self.elevation_column.max() >= ANGLE_FFT_SIZE):
+            raise OobError(f"radar {radar.name!r}: the virtual array is wider than the {ANGLE_FFT_SIZE}-point angle FFT")
+        self.num_tx = len(radar.tx_order)
+        self.num_rx = radar.num_rx
+
+
+def _platform(radar, sdk: int) -> int:
+    """The UART header's platform word: the board's device; xWR14xx for SDK 1.x/2.x; else by band."""
+    if sdk == 2:
+        return PLATFORMS["IWR1443"]
+    try:
+        return PLATFORMS.get(board_for_radar(radar).device, 0)
+    except TiCfgError:
+        return PLATFORMS["IWR6843"] if radar.fc < 70e9 else PLATFORMS["AWR1843"]
+
+
+# ---------------------------------------------------------------------------------------- 1D / 2D
+def range_fft(adc: np.ndarray) -> np.ndarray:
+    """Range FFT of ADC words ``[..., sample]`` (module docstring, step 2) -> int16-valued complex
+    ``[..., range bin]``."""
+    n = adc.shape[-1]
+    spectrum = np.fft.fft(adc * blackman_q17(n), n=_next_pow2(n), axis=-1) / 4.0
+    return _saturate16(spectrum)
+
+
+def doppler_fft(x: np.ndarray, sdk: int) -> np.ndarray:
+    """Doppler FFT over axis 0 (chirps) of ``[chirp, ...]`` (step 5) -> ``[Doppler bin, ...]``."""
+    n = x.shape[0]
+    size = _next_pow2(n)
+    window = np.ones(n) if (sdk == 3 and n <= 4) or n < 2 else hanning_q17(n)
+    shape = (n,) + (1,) * (x.ndim - 1)
+    spectrum = np.fft.fft(x * window.reshape(shape), n=size, axis=0) / max(size / 2, 1)
+    return _saturate16(spectrum)
+
+
+def detection_matrix(spectrum: np.ndarray, sdk: int) -> np.ndarray:
+    """Detection matrix ``[range, Doppler]`` (uint16) of ``[range, Doppler, virtual]`` (step 6)."""
+    n = spectrum.shape[-1]
+    shift = math.ceil(math.log2(n)) if n > 1 else 0
+    i, q = np.abs(spectrum.real), np.abs(spectrum.imag)
+    if sdk == 2:
+        magnitude = np.hypot(i, q)
+        log2 = np.floor(512.0 * np.log2(np.maximum(magnitude, 1.0)))
+        total = np.floor(log2.sum(axis=-1) / (1 << shift))
+    else:
+        magnitude = np.maximum(i, q) + 0.375 * np.minimum(i, q)
+        log2 = np.floor(256.0 * np.log2(np.maximum(magnitude, 1.0)))
+        total = np.floor(log2.sum(axis=-1) / (1 << shift))
+    return np.clip(total, 0, 65535).astype(np.uint16)
+
+
+# ---------------------------------------------------------------------------------------- CFAR
+def cfar(values: np.ndarray, config, sdk: int, num_virtual: int, cyclic: bool | None = None):
+    """CA/CAGO/CASO CFAR along axis 0 of ``values`` (step 7): ``(hits, noise estimate)``, both the
+    shape of ``values``. SDK 2.x programs the HWA with ``noiseWin >> 1`` cells on each side
+    (``HWAutil_configCFAR``), SDK 3.x's DSP with ``noiseWin`` cells on each side."""
+    x = np.asarray(values, np.int64)
+    n = x.shape[0]
+    win = config.window >> 1 if sdk == 2 else config.window
+    guard, shift = config.guard, config.divide_shift
+    cyclic = config.cyclic if cyclic is None else cyclic
+    if 2 * (win + guard) >= n:
+        raise OobError(f"cfarCfg (line {config.line}): 2*(noiseWin + guardLen) = {2 * (win + guard)} must be "
+                       f"less than the {n} bins of its direction")
+    if win < 1:
+        raise OobError(f"cfarCfg (line {config.line}): noiseWin {config.window} leaves no noise cell")
+    kernel_offsets_left = np.arange(guard + 1, guard + win + 1)
+    index = np.arange(n)
+    if cyclic:
+        left = sum(np.take(x, (index - o) % n, axis=0) for o in kernel_offsets_left)
+        right = sum(np.take(x, (index + o) % n, axis=0) for o in kernel_offsets_left)
+        have_left = have_right = np.ones(n, bool)
+    else:
+        padded = np.concatenate([np.zeros((guard + win,) + x.shape[1:], np.int64), x,
+                                 np.zeros((guard + win,) + x.shape[1:], np.int64)])
+        left = sum(padded[guard + win - o: guard + win - o + n] for o in kernel_offsets_left)
+        right = sum(padded[guard + win + o: guard + win + o + n] for o in kernel_offsets_left)
+        have_left = index - guard - win >= 0
+        have_right = index + guard + win <= n - 1
+    shape = (n,) + (1,) * (x.ndim - 1)
+    have_left, have_right = have_left.reshape(shape), have_right.reshape(shape)
+    both = have_left & have_right
+    one_side = np.where(have_left, left, right)
+    if config.averaging == 0:
+        noise = np.where(both, left + right, 2 * one_side) >> shift
+    elif config.averaging == 1:
+        noise = np.where(both, np.maximum(left, right), one_side) >> shift
+    else:
+        noise = np.where(both, np.minimum(left, right), one_side) >> shift
+    hits = x > noise + config.threshold_counts(sdk, num_virtual)
+    return hits, noise
+
+
+def peak_grouping(det: np.ndarray, ranges: np.ndarray, dopplers: np.ndarray, in_range: bool, in_doppler: bool,
+                  min_range: int, max_range: int) -> np.ndarray:
+    """Mask of the detections ``(ranges, dopplers)`` that survive the 3x3 local-maximum test (step 8)."""
+    if not (in_range or in_doppler):
+        return np.ones(ranges.shape, bool)
+    n_doppler = det.shape[1]
+    centre = det[ranges, dopplers].astype(np.int64)
+    keep = np.ones(ranges.shape, bool)
+    offsets = [(dr, dd) for dr in (-1, 0, 1) for dd in (-1, 0, 1) if (dr, dd) != (0, 0)
+               and ((in_range and in_doppler) or (in_range and dd == 0) or (in_doppler and dr == 0))]
+    for dr, dd in offsets:
+        r = ranges + dr
+        inside = (r >= min_range) & (r <= max_range) & (r >= 0) & (r < det.shape[0])
+        value = np.where(inside, det[np.clip(r, 0, det.shape[0] - 1), (dopplers + dd) % n_doppler], 0)
+        keep &= ~(value.astype(np.int64) > centre)
+    return keep
+
+
+# ---------------------------------------------------------------------------------------- angle
+def _second_peak(magnitude: np.ndarray, first: int) -> int:
+    """Index of the largest bin outside the first peak's flanks (``MmwDemo_angleEstimationAzimElev``)."""
+    n = magnitude.size
+    t, left, k = first, (first + 1) % n, n
+    while magnitude[t] >= magnitude[left] and k > 0:
+        t, left, k = (t + 1) % n, (left + 1) % n, k - 1
+    t, right, k = first, (first - 1) % n, n
+    while magnitude[t] >= magnitude[right] and k > 0:
+        t, right, k = (t - 1) % n, (right - 1) % n, k - 1
+    length = ((right - left) % n) + 1
+    candidates = (left + np.arange(length)) % n
+    return int(candidates[np.argmax(magnitude[candidates])])
+
+
+# ---------------------------------------------------------------------------------------- the chain
+def _adc_codes(cube: np.ndarray, radar) -> np.ndarray:
+    scale = words_per_sqrt_watt(radar)
+    fired = np.asarray(cube)[:, radar.tx_order]          # [L, M slots, N, S]
+    return _saturate16(fired.astype(np.complex128) * scale)
+
+
+def dc_range_signature(range_spectra: np.ndarray, processing: TiProcessing) -> np.ndarray | None:
+    """The DC range signature the device learns: mean over the chirps of ``range_spectra``
+    ``[chirp, slot, rx, range bin]`` (the first ``numAvg`` chirps of the run, at most) of the
+    calibrated bins, zero elsewhere; None when ``calibDcRangeSig`` is off."""
+    dc = processing.dc_calibration
+    if not dc.enabled:
+        return None
+    chirps = max(1, dc.num_average_chirps // range_spectra.shape[1])
+    mean = range_spectra[:chirps].mean(axis=0)
+    signature = np.zeros_like(mean)
+    bins = list(range(0, dc.positive_bin + 1)) + list(range(mean.shape[-1] + dc.negative_bin, mean.shape[-1]))
+    signature[..., bins] = mean[..., bins]
+    return signature
+
+
+def range_spectra(cube: np.ndarray, radar) -> np.ndarray:
+    """Range FFT of one frame in the device's units, ``[chirp, slot, rx, range bin]`` (steps 1-2)."""
+    return range_fft(_adc_codes(cube, radar))
+
+
+def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time: float = 0.0,
+           dc_signature: np.ndarray | None = None) -> DetectedPoints:
+    """The OOB demo's detected points of one frame (module docstring).
+
+    Parameters
+    ----------
+    cube : complex ``[chirp, tx, rx, sample]``
+        One frame of the run store's ``iq`` (:math:`\\sqrt{\\mathrm W}`, tx in physical order).
+    radar : RadarConfig
+        The radar that made it (array layout, ADC scale, chirp timing).
+    processing : TiProcessing
+        The ``.cfg``'s processing lines (:func:`sionnafmcw.ti.processing.processing_from_cfg`).
+    frame_number, time
+        The demo's frame counter and the CPI start (s), copied to the result.
+    dc_signature : complex ``[slot, rx, range bin]``, optional
+        The DC range signature learnt after ``sensorStart`` (:func:`dc_range_signature`); None
+        with ``calibDcRangeSig`` on: learnt from this frame.
+    """
+    sdk = processing.sdk
+    cube = np.asarray(cube)
+    expected = (radar.num_chirps, radar.num_tx, radar.num_rx, radar.num_samples)
+    if cube.shape != expected:
+        raise OobError(f"cube of shape {cube.shape} does not match the radar's [chirp, tx, rx, sample] {expected}")
+    if processing.extended_max_velocity:
+        raise OobError("extendedMaxVelocity 1 is not modelled; use 0")
+    array = _Array(radar)
+    n_virtual = array.num_virtual
+
+    spectra = range_spectra(cube, radar)                     # [L, M, N, R]
+    if processing.dc_calibration.enabled:
+        signature = dc_range_signature(spectra, processing) if dc_signature is None else dc_signature
+        spectra = _saturate16(spectra - signature[None])
+    spectra = spectra.reshape(radar.num_chirps, n_virtual, -1)   # virtual i = slot * N + rx
+    if processing.clutter_removal:
+        spectra = _saturate16(spectra - spectra.mean(axis=0, keepdims=True))
+    doppler = doppler_fft(spectra, sdk)                      # [D, V, R]
+    cube_rdv = np.transpose(doppler, (2, 0, 1))              # [R, D, V]
+    det = detection_matrix(cube_rdv, sdk)                    # [R, D]
+    n_range, n_doppler = det.shape
+
+    range_step = SPEED_OF_LIGHT * radar.fs / (2 * radar.slope * n_range)
+    doppler_step = radar.centre_wavelength / (2 * radar.num_tx * radar.chirp_interval * n_doppler)
+
+    # CFAR
+    if sdk == 2:
+        hits, noise_range = cfar(det, processing.cfar_range, sdk, n_virtual)
+        passed = hits
+        # the HWA lists the detections Doppler bin by Doppler bin
+        dopplers, ranges = np.nonzero(passed.T)
+    else:
+        # the DSP skips a direction whose threshold is 0 (``cfarcaprocdsp.c``)
+        if processing.cfar_doppler.threshold == 0:
+            dop_hits = np.ones(det.shape, bool)
+        else:
+            dop_hits, _ = cfar(det.T, processing.cfar_doppler, sdk, n_virtual, cyclic=True)
+            dop_hits = dop_hits.T                            # [R, D]
+        columns = np.flatnonzero(dop_hits.any(axis=0))
+        rng_hits = np.zeros_like(dop_hits)
+        noise_range = np.zeros(det.shape, np.int64)
+        if columns.size:
+            hits, noise = cfar(det[:, columns], processing.cfar_range, sdk, n_virtual)
+            rng_hits[:, columns] = hits if processing.cfar_range.threshold != 0 else True
+            noise_range[:, columns] = noise
+        passed = dop_hits & rng_hits
+        ranges, dopplers = np.nonzero(passed)
+    signed = np.where(dopplers >= n_doppler // 2, dopplers - n_doppler, dopplers)
+
+    # peak grouping and the range / Doppler windows
+    if sdk == 2:
+        pg = processing.peak_grouping
+        low, high = pg.start_range_index, pg.end_range_index
+        keep = (ranges >= low) & (ranges <= high)
+        keep &= peak_grouping(det, ranges, dopplers, pg.in_range, pg.in_doppler, low, high)
+    else:
+        keep = np.ones(ranges.shape, bool)
+        if processing.cfar_range.peak_grouping or processing.cfar_doppler.peak_grouping:
+            keep &= peak_grouping(det, ranges, dopplers, processing.cfar_range.peak_grouping,
+                                  processing.cfar_doppler.peak_grouping, 0, n_range - 1)
+        fr, fd = processing.cfar_fov_range, processing.cfar_fov_doppler
+        keep &= (ranges >= int(fr.minimum / range_step + 0.5)) & (ranges <= int(fr.maximum / range_step + 0.5))
+        d_low = math.copysign(int(abs(fd.minimum) / doppler_step + 0.5), fd.minimum)
+        d_high = math.copysign(int(abs(fd.maximum) / doppler_step + 0.5), fd.maximum)
+        keep &= (signed >= d_low) & (signed <= d_high)
+    ranges, dopplers, signed = ranges[keep], dopplers[keep], signed[keep]
+    limit = processing.max_points
+    if sdk == 2 and array.elevation.size:
+        limit = min(limit, MAX_POINTS_ELEVATION_SDK2)
+    ranges, dopplers, signed = ranges[:limit], dopplers[:limit], signed[:limit]
+
+    # angle estimation
+    phase = processing.range_bias_phase.q15(n_virtual)
+    slot = np.arange(n_virtual) // radar.num_rx
+    bias = processing.range_bias_phase.range_bias
+    first = {k: [] for k in ("x", "y", "z", "r", "d", "ds", "peak", "det", "noise")}
+    second = {k: [] for k in first}
+    for r, d, ds in zip(ranges.tolist(), dopplers.tolist(), signed.tolist()):
+        samples = cube_rdv[r, d] * np.exp(-2j * np.pi * slot * ds / (array.num_tx * n_doppler))
+        samples = _saturate16(_saturate16(samples) * phase)
+        row = np.zeros(ANGLE_FFT_SIZE, complex)
+        row[array.azimuth_column] = samples[array.azimuth]
+        azimuth = np.fft.fft(row) * (AZIMUTH_HWA_GAIN if sdk == 2 else 1.0)
+        magnitude = np.abs(azimuth) if sdk == 2 else np.abs(azimuth) ** 2
+        if sdk == 2:
+            magnitude = np.minimum(np.floor(magnitude), 65535)
+        elevation = None
+        if array.elevation.size:
+            raised = np.zeros(ANGLE_FFT_SIZE, complex)
+            raised[array.elevation_column] = samples[array.elevation]
+            elevation = np.fft.fft(raised)
+        peaks = [int(np.argmax(magnitude))]
+        if processing.multi_object.enabled:
+            other = _second_peak(magnitude, peaks[0])
+            level = magnitude[peaks[0]] * processing.multi_object.threshold
+            if magnitude[other] > (math.floor(level) if sdk == 2 else level):     # SDK 2.x: uint32 cast
+                peaks.append(other)
+        for target, k in zip((first, second), peaks):
+            ks = k - ANGLE_FFT_SIZE if k > ANGLE_FFT_SIZE // 2 - 1 else k
+            wx = 2.0 * ks / ANGLE_FFT_SIZE
+            wz = 0.0
+            if elevation is not None:
+                wz = -np.angle(elevation[k] * np.conj(azimuth[k])) / np.pi
+                wz = (wz + 1.0) % 2.0 - 1.0
+            distance = r * range_step - bias
+            x, z = distance * wx, distance * wz
+            y2 = distance ** 2 - x ** 2 - z ** 2
+            if sdk == 3:
+                fov = processing.aoa_fov
+                if (y2 <= 0 or not math.sin(math.radians(fov.min_azimuth_deg)) <= wx
+                        <= math.sin(math.radians(fov.max_azimuth_deg))
+                        or not math.sin(math.radians(fov.min_elevation_deg)) <= wz
+                        <= math.sin(math.radians(fov.max_elevation_deg))):
+                    continue
+            y = math.sqrt(y2) if y2 > 0 else 0.0
+            target["x"].append(x), target["y"].append(y), target["z"].append(z)
+            target["r"].append(r), target["d"].append(d), target["ds"].append(ds)
+            target["peak"].append(magnitude[k] if sdk == 2 else det[r, d])
+            target["det"].append(int(det[r, d])), target["noise"].append(int(noise_range[r, d]))
+    out = {k: first[k] + second[k] for k in first}      # the demo appends second peaks to the list
+    count = len(out["x"])
+    if sdk == 2:
+        count = min(count, limit)                    # second peaks are appended within the limit
+    for key in out:
+        out[key] = np.asarray(out[key][:count])
+
+    q = int(math.ceil(math.log2(16.0 / range_step)))
+    if sdk == 2:
+        grid = float(1 << q)
+
+        def quantise(v):
+            v = np.asarray(v, float)
+            return (np.trunc(v * grid + np.where(v < 0, -0.5, 0.5)).astype(np.int16) / grid).astype(np.float32)
+        x, y, z = quantise(out["x"]), quantise(out["y"]), quantise(out["z"])
+        noise_db = np.round(6.0 * out["noise"] / 512.0, 1).astype(np.float32)
+        snr_db = (np.round(6.0 * out["det"] / 512.0, 1) - noise_db).astype(np.float32)
+    else:
+        x, y, z = (np.asarray(out[k], np.float32) for k in ("x", "y", "z"))
+        noise_tenth = np.floor(60.0 * out["noise"] / 256.0)
+        snr_tenth = np.floor(60.0 * out["det"] / 256.0) - noise_tenth
+        noise_db = (noise_tenth / 10.0).astype(np.float32)
+        snr_db = (snr_tenth / 10.0).astype(np.float32)
+    gui = processing.gui_monitor
+    azimuth_map = None
+    if gui.range_azimuth_heatmap:
+        azimuth_map = cube_rdv[:, 0, :][:, array.azimuth].astype(np.complex64)
+    return DetectedPoints(
+        frame_number=int(frame_number), time=float(time), sdk=sdk, platform=_platform(radar, sdk),
+        x=x, y=y, z=z,
+        velocity=(np.asarray(out["ds"], float) * doppler_step).astype(np.float32),
+        range_index=np.asarray(out["r"], np.uint16), doppler_index=np.asarray(out["ds"], np.int16),
+        peak_value=np.minimum(np.asarray(out["peak"], float), 65535).astype(np.uint16),
+        snr_db=snr_db, noise_db=noise_db, xyz_q_format=q if sdk == 2 else 0,
+        range_step=float(range_step), doppler_step=float(doppler_step),
+        range_profile=det[:, 0].copy() if gui.log_mag_range else None,
+        noise_profile=det[:, n_doppler // 2].copy() if gui.noise_profile else None,
+        azimuth_static_heatmap=azimuth_map,
+        range_doppler_heatmap=det.copy() if gui.range_doppler_heatmap else None,
+    )
+
+
+# ---------------------------------------------------------------------------------------- run stores
+def run_processing(run, processing=None) -> TiProcessing:
+    """The processing of a run: ``processing`` (a :class:`TiProcessing`, or a ``.cfg`` path or
+    text), else the processing lines of the ``.cfg`` its radar was read from."""
+    if isinstance(processing, TiProcessing):
+        return processing
+    if processing is not None:
+        return processing_from_cfg(processing)
+    radar = run.radar
+    found = processing_from_lines(radar.ti_processing, f"{run.path}: radar .cfg")
+    if found is None:
+        raise TiCfgError(f"{run.path}: the run's radar ({radar.name}) did not come from a TI .cfg with "
+                         "processing lines; give the demo's .cfg (--cfg FILE)")
+    return found
+
+
+def run_point_clouds(store_path, processing=None, frames=None):
+    """Iterator of :class:`DetectedPoints`, one per done frame of a run store (``frames``: indices,
+    default all done frames), through :func:`detect`. ``processing``: a :class:`TiProcessing` or a
+    ``.cfg`` (path or text); None: the run's own radar ``.cfg`` lines (:func:`run_processing`).
+    The frame counter is the frame index + 1 (the demo counts from 1). With ``calibDcRangeSig``
+    on, the DC signature is learnt from the run's first frames (its first ``numAvg`` chirps)."""
+    from ..store import open_run
+
+    run = open_run(store_path)
+    processing = run_processing(run, processing)
+    radar = run.radar
+    done = run.done_frames
+    frames = done if frames is None else np.asarray(frames, int).reshape(-1)
+    signature = None
+    if processing.dc_calibration.enabled and done.size:
+        per_frame = radar.num_chirps * radar.num_tx
+        needed = max(1, -(-processing.dc_calibration.num_average_chirps // per_frame))
+        learnt = np.concatenate([range_spectra(run.cube(int(f)), radar) for f in done[:needed]])
+        signature = dc_range_signature(learnt, processing)
+    times = run.frame_times
+    for f in frames.tolist():
+        yield detect(run.cube(f), radar, processing, frame_number=f + 1, time=float(times[f]),
+                     dc_signature=signature)
+
+
+__all__ = ["ANGLE_FFT_SIZE", "OobError", "blackman_q17", "cfar", "dc_range_signature", "detect",
+           "detection_matrix", "doppler_fft", "hanning_q17", "peak_grouping", "range_fft", "range_spectra",
+           "run_point_clouds", "run_processing"]
