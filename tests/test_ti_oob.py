@@ -372,7 +372,8 @@ def line_of(text, prefix):
 
 @pytest.mark.parametrize("change, prefix, words", [
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 2 8 4 3 0 15"), "cfarCfg -1 0", "takes 7 (SDK 1.x/2.x"),
-    (("cfarCfg -1 1 0 4 2 3 1 15 1", "cfarCfg 1 0 4 2 3 1 1200"), "cfarCfg 1 0", "SDK 1.x/2.x (xWR14xx) syntax, but line"),
+    (("cfarCfg -1 1 0 4 2 3 1 15 1", "cfarCfg 1 0 4 2 3 1 1200"), "cfarCfg 1 0",
+     "SDK 1.x/2.x (xWR14xx) syntax, but line"),
     (("multiObjBeamForming -1 1 0.5", "multiObjBeamForming 0 1 0.5"), "multiObjBeamForming", "subframe 0"),
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 5 8 4 3 0 15 1"), "cfarCfg -1 0", "averageMode"),
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 2 8 4 3 0 150 1"), "cfarCfg -1 0", "0..100 dB"),
@@ -429,7 +430,8 @@ def test_dc_range_calibration_removes_the_leakage_points(sdk):
     radar, processing = setup(sdk)
     if sdk == 3:    # range bin 0 has R = 0, so y = 0 and SDK 3.x drops it; without grouping bin 1 shows
         off = lambda c: CfarConfig(**{**c.__dict__, "peak_grouping": False})   # noqa: E731
-        processing = processing.replace(cfar_range=off(processing.cfar_range), cfar_doppler=off(processing.cfar_doppler))
+        processing = processing.replace(cfar_range=off(processing.cfar_range),
+                                        cfar_doppler=off(processing.cfar_doppler))
     echoes = Echoes.point_targets(radar, ranges=[2.0], radial_velocities=[0.0], azimuths=[0.1], rcs=[RCS[sdk]])
     cube = synthesize(echoes, radar, rng=9, leakage_db=-40.0)
     plain = detect(cube, radar, processing)
