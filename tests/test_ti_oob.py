@@ -97,16 +97,21 @@ def test_point_reflector_gives_one_point_at_its_position(sdk, azimuth_deg, eleva
 @pytest.mark.parametrize("sdk", [2, 3])
 @pytest.mark.parametrize("bins", [0.0, 2.2, -3.3])
 def test_moving_reflector_lands_in_its_doppler_bin(sdk, bins):
-    """v = Doppler step x signed bin; the bin is the radial velocity over the step, rounded."""
+    """v = Doppler step x signed bin; the bin is the radial velocity over the step, rounded. The
+    TDM slots' Doppler phase is compensated before the angle FFT: the moving reflector's x is where
+    the static one's is (one angle bin)."""
     radar, processing = setup(sdk)
     step = radar.centre_wavelength / (2 * radar.num_tx * radar.chirp_interval * 16)
     velocity = bins * step
-    points = one_target(radar, processing, ranges=3.1, radial_velocities=velocity, azimuths=0.1, elevations=0.0,
+    azimuth = 0.35
+    points = one_target(radar, processing, ranges=3.1, radial_velocities=velocity, azimuths=azimuth, elevations=0.0,
                         rcs=RCS[sdk])
     assert points.num_points >= 1
     assert points.doppler_step == pytest.approx(step, rel=1e-12)
     assert set(points.doppler_index.tolist()) == {round(bins)}
     np.testing.assert_allclose(points.velocity, round(bins) * step, rtol=1e-6)
+    wx = points.x / (points.range_index * points.range_step)
+    assert np.all(np.abs(wx + angle_scale(radar) * math.sin(azimuth)) <= 2.0 / ANGLE_FFT_SIZE)
 
 
 # ---------------------------------------------------------------------------------------- fixed point
