@@ -97,16 +97,21 @@ def test_point_reflector_gives_one_point_at_its_position(sdk, azimuth_deg, eleva
 @pytest.mark.parametrize("sdk", [2, 3])
 @pytest.mark.parametrize("bins", [0.0, 2.2, -3.3])
 def test_moving_reflector_lands_in_its_doppler_bin(sdk, bins):
-    """v = Doppler step x signed bin; the bin is the radial velocity over the step, rounded."""
+    """v = Doppler step x signed bin; the bin is the radial velocity over the step, rounded. The
+    TDM slots' Doppler phase is compensated before the angle FFT: the moving reflector's x is where
+    the static one's is (one angle bin)."""
     radar, processing = setup(sdk)
     step = radar.centre_wavelength / (2 * radar.num_tx * radar.chirp_interval * 16)
     velocity = bins * step
-    points = one_target(radar, processing, ranges=3.1, radial_velocities=velocity, azimuths=0.1, elevations=0.0,
+    azimuth = 0.35
+    points = one_target(radar, processing, ranges=3.1, radial_velocities=velocity, azimuths=azimuth, elevations=0.0,
                         rcs=RCS[sdk])
     assert points.num_points >= 1
     assert points.doppler_step == pytest.approx(step, rel=1e-12)
     assert set(points.doppler_index.tolist()) == {round(bins)}
     np.testing.assert_allclose(points.velocity, round(bins) * step, rtol=1e-6)
+    wx = points.x / (points.range_index * points.range_step)
+    assert np.all(np.abs(wx + angle_scale(radar) * math.sin(azimuth)) <= 2.0 / ANGLE_FFT_SIZE)
 
 
 # ---------------------------------------------------------------------------------------- fixed point
@@ -372,7 +377,8 @@ def line_of(text, prefix):
 
 @pytest.mark.parametrize("change, prefix, words", [
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 2 8 4 3 0 15"), "cfarCfg -1 0", "takes 7 (SDK 1.x/2.x"),
-    (("cfarCfg -1 1 0 4 2 3 1 15 1", "cfarCfg 1 0 4 2 3 1 1200"), "cfarCfg 1 0", "SDK 1.x/2.x (xWR14xx) syntax, but line"),
+    (("cfarCfg -1 1 0 4 2 3 1 15 1", "cfarCfg 1 0 4 2 3 1 1200"), "cfarCfg 1 0",
+     "SDK 1.x/2.x (xWR14xx) syntax, but line"),
     (("multiObjBeamForming -1 1 0.5", "multiObjBeamForming 0 1 0.5"), "multiObjBeamForming", "subframe 0"),
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 5 8 4 3 0 15 1"), "cfarCfg -1 0", "averageMode"),
     (("cfarCfg -1 0 2 8 4 3 0 15 1", "cfarCfg -1 0 2 8 4 3 0 150 1"), "cfarCfg -1 0", "0..100 dB"),
@@ -429,7 +435,8 @@ def test_dc_range_calibration_removes_the_leakage_points(sdk):
     radar, processing = setup(sdk)
     if sdk == 3:    # range bin 0 has R = 0, so y = 0 and SDK 3.x drops it; without grouping bin 1 shows
         off = lambda c: CfarConfig(**{**c.__dict__, "peak_grouping": False})   # noqa: E731
-        processing = processing.replace(cfar_range=off(processing.cfar_range), cfar_doppler=off(processing.cfar_doppler))
+        processing = processing.replace(cfar_range=off(processing.cfar_range),
+                                        cfar_doppler=off(processing.cfar_doppler))
     echoes = Echoes.point_targets(radar, ranges=[2.0], radial_velocities=[0.0], azimuths=[0.1], rcs=[RCS[sdk]])
     cube = synthesize(echoes, radar, rng=9, leakage_db=-40.0)
     plain = detect(cube, radar, processing)

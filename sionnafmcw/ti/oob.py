@@ -75,7 +75,8 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 12. **Point limit** (SDK 2.x: 100, 64 with elevation; SDK 3.x: 500) and **output**: SDK 2.x
     ``int16`` x, y, z in Q\ :math:`q` with :math:`q = \lceil\log_2(16/\Delta r)\rceil`
     (``main.c``), rounded half away from zero, ``peakVal`` the azimuth FFT's magnitude at the peak
-    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x float32 x, y, z, v, SNR and noise in 0.1 dB:
+    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x
+    float32 x, y, z, v, SNR and noise in 0.1 dB:
     noise :math:`= \lfloor 60\,\bar n/256 \rfloor`, SNR :math:`= \lfloor 60 D/256 \rfloor -` noise
     (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
     from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
@@ -182,7 +183,8 @@ class _Array:
             raise OobError(f"radar {radar.name!r}: two azimuth virtual elements coincide")
         if self.azimuth_column.max() >= ANGLE_FFT_SIZE or (self.elevation.size and
                                                             self.elevation_column.max() >= ANGLE_FFT_SIZE):
-            raise OobError(f"radar {radar.name!r}: the virtual array is wider than the {ANGLE_FFT_SIZE}-point angle FFT")
+            raise OobError(f"radar {radar.name!r}: the virtual array is wider than the "
+                           f"{ANGLE_FFT_SIZE}-point angle FFT")
         self.num_tx = len(radar.tx_order)
         self.num_rx = radar.num_rx
 

@@ -46,6 +46,7 @@ Lines that configure monitoring, calibration measurement, low power or the LVDS 
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass, field
 
@@ -232,7 +233,6 @@ class TiProcessing:
 
     def replace(self, **changes) -> "TiProcessing":
         """A copy with some fields changed."""
-        import dataclasses
         return dataclasses.replace(self, **changes)
 
 
@@ -243,7 +243,7 @@ def _flag(value: float, where: str, name: str) -> bool:
     return bool(value)
 
 
-def processing_lines(text: str, source: str = "<cfg text>"):
+def processing_lines(text: str):
     """``[(line number, command, [arguments])]`` of the chain commands in ``text``."""
     return [(n, c, a) for n, c, a, _ in commands(text) if c in CHAIN_COMMANDS]
 
