@@ -41,7 +41,8 @@ The BVH route (:func:`~sionnafmcw.mocap.blender_route.export_with_blender`) in t
 Blender 3.4 importer opens the clip with mode ``'rU'`` (refused by Python 3.11; the route's script
 reads it as ``'r'``), writes the same directory as in the ``bpy`` module to the same float32
 tolerances: the person stands within a metre of the origin and the radar 3 m in front of it (inside
-``SCENE_EXTENT``), at 24 fps with the exporter's half-frame velocity differences.
+``SCENE_EXTENT``), at 24 fps with the exporter's half-frame velocity differences. Where that
+Blender's Python lacks numpy, the route stops with the exporter's one line naming the fix.
 
 Where the Blender binary's Python lacks numpy (Debian's ``blender`` without ``python3-numpy``), the
 exporter prints one line naming the fix; the test hides numpy from that Blender's Python by
@@ -55,6 +56,7 @@ import importlib.util
 import json
 import math
 import os
+import shlex
 import shutil
 import subprocess
 import xml.etree.ElementTree as ET
@@ -65,7 +67,8 @@ import pytest
 
 from sionnafmcw import PathEngine, RadarConfig, load_animation, processing, simulate
 from sionnafmcw.animation import read_ply
-from sionnafmcw.blender import ADDON_NAME, BLENDER_VENV, ERROR_MARKER, addon_zip, export_blend, script_path
+from sionnafmcw.blender import (ADDON_NAME, BLENDER_VENV, ERROR_MARKER, BlenderExportError, addon_zip, export_blend,
+                                script_path)
 from sionnafmcw.geometry import world_phase_centre
 from sionnafmcw.mocap import library
 from sionnafmcw.mocap.blender_route import export_with_blender
@@ -505,3 +508,25 @@ def test_mocap_route_in_the_blender_binary_writes_the_module_routes_directory(bl
     assert sources[0] == version and sources[1].startswith("4."), sources
     assert load_animation(binary).num_frames == person.num_frames
     assert compare_directories(binary, module) == []
+
+
+def test_mocap_route_in_the_blender_binary_without_numpy_names_the_fix(tmp_path):
+    """The BVH route in a Blender whose Python cannot import numpy (blocked as above, by a wrapper that
+    runs the binary with the block first): the error is the exporter's one line, nothing is written."""
+    wrapper = tmp_path / "blender-without-numpy"
+    wrapper.write_text("#!/bin/sh\nexec " + shlex.quote(BLENDER) + " --python-expr "
+                       + shlex.quote("import sys; sys.modules['numpy'] = None") + ' "$@"\n')
+    wrapper.chmod(0o755)
+    person = MocapPerson(library.load_clip("90_18"), fps=FPS, num_frames=3, start=BUSY["90_18"], mesh_edge=0.08)
+    radar, target = radar_in_front((0.0, 0.0), 0.0, 3.0, 1.0)
+    out = tmp_path / "anim"
+    with pytest.raises(BlenderExportError) as info:
+        export_with_blender(person, library.clip_info("90_18").path, out, radar, radar_orientation(radar, target),
+                            blender=wrapper, timeout=TIMEOUT)
+    message = str(info.value)
+    assert "\n" not in message and message.endswith("bundle numpy"), message
+    assert "the Blender route failed: numpy is not importable in the Python" in message
+    assert "Traceback" not in message
+    if Path("/etc/debian_version").is_file():
+        assert "apt-get install python3-numpy" in message
+    assert not out.exists() and not list(tmp_path.glob(".anim*"))

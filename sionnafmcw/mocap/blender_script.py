@@ -28,7 +28,8 @@ Steps, all in a factory-empty scene:
    segment is a rigid object (one PLY, a ``to_world`` per frame), velocities by its central
    differences at :math:`\pm` ``velocity_step`` frames.
 
-numpy (< 2) and bpy only.
+numpy (< 2) and bpy only. The exporter is loaded first: its import refuses, with one line naming
+the fix, a Blender older than it supports or a Python without numpy, before anything is built.
 """
 
 import builtins
@@ -38,8 +39,10 @@ import json
 import sys
 import traceback
 
-import numpy as np
-
+try:
+    import numpy as np
+except ImportError:  # a Blender's Python without numpy: the exporter's import names the fix (main)
+    np = None
 try:
     import bpy
     from mathutils import Matrix
@@ -128,7 +131,16 @@ def _retime_and_align(action, frame_time, start, fps, rate):
             comps[i].update()
 
 
-def build_and_export(npz_path, bvh_path, out, exporter_path):
+def load_exporter(exporter_path):
+    """The exporter (:mod:`sionnafmcw.blender.export`) as a module; its import refuses, with one line
+    naming the fix (ImportError), a Blender older than it supports or a Python without numpy."""
+    spec = importlib.util.spec_from_file_location("sionnafmcw_export", exporter_path)
+    exporter = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(exporter)
+    return exporter
+
+
+def build_and_export(npz_path, bvh_path, out, exporter):
     data = np.load(npz_path, allow_pickle=False)
     meta = json.loads(str(data["meta"]))
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -183,9 +195,6 @@ def build_and_export(npz_path, bvh_path, out, exporter_path):
     n = int(meta["num_frames"])
     scene.frame_start, scene.frame_end = 1, n
     bpy.context.view_layer.update()
-    spec = importlib.util.spec_from_file_location("sionnafmcw_export", exporter_path)
-    exporter = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(exporter)
     try:
         exporter.export_animation(out, 1, n, radar="radar", velocity_step=float(meta["velocity_step"]))
     except exporter.ExportError as err:
@@ -199,7 +208,12 @@ def main(argv=None) -> int:
         print(ERROR_MARKER + "usage: blender_script.py BODY.npz CLIP.bvh OUT EXPORTER.py", file=sys.stderr)
         return 2
     try:
-        build_and_export(*argv)
+        exporter = load_exporter(argv[3])
+    except ImportError as err:  # the exporter's own one-line refusal (old Blender, numpy missing)
+        print(ERROR_MARKER + " ".join(str(err).split()), file=sys.stderr, flush=True)
+        return 1
+    try:
+        build_and_export(*argv[:3], exporter)
         return 0
     except Exception as err:  # noqa: BLE001 - report everything on one marked line
         traceback.print_exc()
