@@ -37,6 +37,13 @@ range peak lies within half a range bin of the distance from the moving radar's 
 the box's face at the middle of the CPI, and its Doppler within half a Doppler bin of the store's
 truth (the box's radial velocity relative to the moving radar), sign included.
 
+The BVH route (:func:`~sionnafmcw.mocap.blender_route.export_with_blender`) in the binary, whose
+Blender 3.4 importer opens the clip with mode ``'rU'`` (refused by Python 3.11; the route's script
+reads it as ``'r'``), writes the same directory as in the ``bpy`` module to the same float32
+tolerances: the person stands within a metre of the origin and the radar 3 m in front of it (inside
+``SCENE_EXTENT``), at 24 fps with the exporter's half-frame velocity differences. Where that
+Blender's Python lacks numpy, the route stops with the exporter's one line naming the fix.
+
 Where the Blender binary's Python lacks numpy (Debian's ``blender`` without ``python3-numpy``), the
 exporter prints one line naming the fix; the test hides numpy from that Blender's Python by
 blocking its import (``sys.modules["numpy"] = None``, Python's documented import block) before the
@@ -49,6 +56,7 @@ import importlib.util
 import json
 import math
 import os
+import shlex
 import shutil
 import subprocess
 import xml.etree.ElementTree as ET
@@ -59,8 +67,13 @@ import pytest
 
 from sionnafmcw import PathEngine, RadarConfig, load_animation, processing, simulate
 from sionnafmcw.animation import read_ply
-from sionnafmcw.blender import ADDON_NAME, BLENDER_VENV, ERROR_MARKER, addon_zip, export_blend, script_path
+from sionnafmcw.blender import (ADDON_NAME, BLENDER_VENV, ERROR_MARKER, BlenderExportError, addon_zip, export_blend,
+                                script_path)
 from sionnafmcw.geometry import world_phase_centre
+from sionnafmcw.mocap import library
+from sionnafmcw.mocap.blender_route import export_with_blender
+from sionnafmcw.mocap.person import MocapPerson
+from sionnafmcw.mocap.scene import radar_in_front, radar_orientation
 
 BLENDER = shutil.which("blender")
 pytestmark = pytest.mark.skipif(
@@ -76,6 +89,9 @@ BOX_HALF = 0.2                                      # m
 ANGULAR_VELOCITY_TOL = VELOCITY_TOL / BOX_HALF      # rad/s
 ANGLE_TOL = 1e-6                                    # rad
 TIMEOUT = 180                                       # s for one Blender run (a few seconds when healthy)
+BPY_PYTHON = BLENDER_VENV / "bin" / "python"
+#: Clip time (s) where each shipped clip moves most (as in tests/test_mocap_routes.py).
+BUSY = {"08_10": 1.1, "09_01": 0.5, "111_10": 1.2, "111_37": 2.3, "75_10": 1.4, "90_18": 0.9, "115_06": 0.6}
 
 BUILD_SCENE = r'''
 import json, math, sys
@@ -469,3 +485,48 @@ def test_binary_export_simulates_the_box_from_the_moving_camera(binary_export, t
         assert abs(track.ranges[j] - r_true) < radar.range_resolution / 2, (f, track.ranges[j], r_true)
         assert abs(track.velocities[j] - v_true) < radar.velocity_resolution / 2, (f, track.velocities[j], v_true)
         assert math.copysign(1, track.velocities[j]) == 1
+
+
+@pytest.mark.skipif(not BPY_PYTHON.exists(), reason=f"the bpy environment is not installed ({BPY_PYTHON}): "
+                    "'make .venv-blender/.installed' makes it")
+@pytest.mark.parametrize("name", [pytest.param(n, marks=() if n == "90_18" else pytest.mark.slow) for n in sorted(BUSY)])
+def test_mocap_route_in_the_blender_binary_writes_the_module_routes_directory(blend, tmp_path, name):
+    """Five frames of a shipped clip where it moves most (the fall, 90_18, in the fast set), through
+    Blender's BVH importer in the binary and in the bpy module: the same directory to float32 rounding.
+    (Measured on every shipped clip, Debian's 3.4.1 against bpy 4.5.15: vertices 6e-7 m, ``to_world``
+    entries 7e-7, velocities 2.3e-5 m/s, angular velocities 2.8e-5 rad/s apart at most.)"""
+    _, version = blend
+    person = MocapPerson(library.load_clip(name), fps=FPS, num_frames=5, start=BUSY[name], mesh_edge=0.06)
+    radar, target = radar_in_front((0.0, 0.0), 0.0, 3.0, 1.0)
+    orientation = radar_orientation(radar, target)
+    bvh = library.clip_info(name).path
+    binary = export_with_blender(person, bvh, tmp_path / "binary", radar, orientation, blender=BLENDER,
+                                 timeout=TIMEOUT)
+    module = export_with_blender(person, bvh, tmp_path / "module", radar, orientation, python=BPY_PYTHON,
+                                 timeout=TIMEOUT)
+    sources = [json.loads((d / "animation.json").read_text())["source"]["blender"] for d in (binary, module)]
+    assert sources[0] == version and sources[1].startswith("4."), sources
+    assert load_animation(binary).num_frames == person.num_frames
+    assert compare_directories(binary, module) == []
+
+
+def test_mocap_route_in_the_blender_binary_without_numpy_names_the_fix(tmp_path):
+    """The BVH route in a Blender whose Python cannot import numpy (blocked as above, by a wrapper that
+    runs the binary with the block first): the error is the exporter's one line, nothing is written."""
+    wrapper = tmp_path / "blender-without-numpy"
+    wrapper.write_text("#!/bin/sh\nexec " + shlex.quote(BLENDER) + " --python-expr "
+                       + shlex.quote("import sys; sys.modules['numpy'] = None") + ' "$@"\n')
+    wrapper.chmod(0o755)
+    person = MocapPerson(library.load_clip("90_18"), fps=FPS, num_frames=3, start=BUSY["90_18"], mesh_edge=0.08)
+    radar, target = radar_in_front((0.0, 0.0), 0.0, 3.0, 1.0)
+    out = tmp_path / "anim"
+    with pytest.raises(BlenderExportError) as info:
+        export_with_blender(person, library.clip_info("90_18").path, out, radar, radar_orientation(radar, target),
+                            blender=wrapper, timeout=TIMEOUT)
+    message = str(info.value)
+    assert "\n" not in message and message.endswith("bundle numpy"), message
+    assert "the Blender route failed: numpy is not importable in the Python" in message
+    assert "Traceback" not in message
+    if Path("/etc/debian_version").is_file():
+        assert "apt-get install python3-numpy" in message
+    assert not out.exists() and not list(tmp_path.glob(".anim*"))

@@ -1,8 +1,9 @@
 r"""The Blender route of a BVH clip: Blender's BVH importer drives the skeleton, the exporter writes the frames.
 
 :func:`export_with_blender` hands a :class:`~.person.MocapPerson` (its clip, placement, timing and
-segment body) to Blender in a subprocess (``.venv-blender`` or any Python with ``bpy``, found as
-:func:`sionnafmcw.blender.find_runner` finds it) running :mod:`.blender_script`: the armature
+segment body) to Blender in a subprocess (``.venv-blender``, any Python with ``bpy``, or a Blender
+binary of 3.4 or newer, found as :func:`sionnafmcw.blender.find_runner` finds it) running
+:mod:`.blender_script`: the armature
 and its action come from ``io_anim_bvh``, not from :mod:`.skeleton`; only the body (the segments'
 meshes at rest, each with the bone it is parented to) and the placement are shared. The exporter
 (:mod:`sionnafmcw.blender.export`) then detects every segment as a rigid object and writes it once
@@ -12,7 +13,8 @@ The two routes agree (``tests/test_mocap_routes.py``): vertex positions to the e
 tolerance (1e-5 m, float32 rounding through Blender's pose matrices and the PLYs), velocities to
 twice that over the difference interval, plus, where the velocity samples fall between the clip's
 frames, the difference between slerp and Blender's normalised linear interpolation
-(:func:`~.skeleton.nlerp_deviation`).
+(:func:`~.skeleton.nlerp_deviation`). Run by Debian 12's ``blender`` 3.4.1 the route writes the
+``bpy`` 4.5 module's directory to float32 rounding (``tests/test_blender_binary.py``).
 """
 
 from __future__ import annotations

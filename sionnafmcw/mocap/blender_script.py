@@ -19,23 +19,30 @@ Steps, all in a factory-empty scene:
 2. With the armature at rest, every body segment (its vertices in the world at rest, from
    :class:`~sionnafmcw.mocap.segments.SegmentBody`) becomes a smooth-shaded mesh object parented to its
    bone (``parent_type='BONE'``) with the parent inverse of the bone's rest matrix: weighted fully
-   to that bone, it follows the bone rigidly. Material ``skin`` with the radio material
+   to that bone, it follows the bone rigidly, and its world matrix is the joint's whatever length
+   and direction the importer gives the bone (Blender 3.4's and 4.x's importers work out the tail of
+   a joint with several children differently). Material ``skin`` with the radio material
    ``{"skin": "dry", "scattering_coefficient": s}``.
 3. An empty ``radar`` at the radar pose (Euler XYZ = roll, pitch, yaw), and the exporter
    (:mod:`sionnafmcw.blender.export`, loaded from its path) writes Blender frames 1..N: each
    segment is a rigid object (one PLY, a ``to_world`` per frame), velocities by its central
    differences at :math:`\pm` ``velocity_step`` frames.
 
-numpy (< 2) and bpy only.
+numpy (< 2) and bpy only. The exporter is loaded first: its import refuses, with one line naming
+the fix, a Blender older than it supports or a Python without numpy, before anything is built.
 """
 
+import builtins
+import contextlib
 import importlib.util
 import json
 import sys
 import traceback
 
-import numpy as np
-
+try:
+    import numpy as np
+except ImportError:  # a Blender's Python without numpy: the exporter's import names the fix (main)
+    np = None
 try:
     import bpy
     from mathutils import Matrix
@@ -51,6 +58,34 @@ def _fcurves(action):
     except AttributeError:  # slotted actions without the legacy API
         return [fc for layer in action.layers for strip in layer.strips for bag in strip.channelbags
                 for fc in bag.fcurves]
+
+
+@contextlib.contextmanager
+def _universal_newline_open(module):
+    """Within the block, ``open`` in ``module`` (Blender's BVH importer) reads a mode ``'rU'`` as ``'r'``.
+
+    Blender 3.4's ``io_anim_bvh`` (Debian 12's ``blender``) opens the clip with ``open(path, 'rU')``;
+    4.5's with ``'r'``. The ``U`` asked for universal newlines (``\\r\\n`` and ``\\r`` read as ``\\n``),
+    which text mode does by itself since Python 3.0; Python accepted the letter as a no-op until 3.11,
+    which refuses it (``ValueError: invalid mode: 'rU'``), and a distribution's Blender 3.4 runs on its
+    system's Python 3.11. ``'r'`` therefore reads the same characters the importer was written for.
+    A module-level ``open`` shadows the built-in for that module only and only while the importer
+    runs; Blender's files are not changed, and an importer that opens with ``'r'`` gets the built-in's
+    behaviour unchanged.
+    """
+    def open_text(file, mode="r", *args, **kwargs):
+        return builtins.open(file, mode.replace("U", ""), *args, **kwargs)
+
+    had = "open" in vars(module)
+    previous = vars(module).get("open")
+    module.open = open_text
+    try:
+        yield
+    finally:
+        if had:
+            module.open = previous
+        else:
+            del module.open
 
 
 def _retime_and_align(action, frame_time, start, fps, rate):
@@ -96,7 +131,16 @@ def _retime_and_align(action, frame_time, start, fps, rate):
             comps[i].update()
 
 
-def build_and_export(npz_path, bvh_path, out, exporter_path):
+def load_exporter(exporter_path):
+    """The exporter (:mod:`sionnafmcw.blender.export`) as a module; its import refuses, with one line
+    naming the fix (ImportError), a Blender older than it supports or a Python without numpy."""
+    spec = importlib.util.spec_from_file_location("sionnafmcw_export", exporter_path)
+    exporter = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(exporter)
+    return exporter
+
+
+def build_and_export(npz_path, bvh_path, out, exporter):
     data = np.load(npz_path, allow_pickle=False)
     meta = json.loads(str(data["meta"]))
     bpy.ops.wm.read_factory_settings(use_empty=True)
@@ -108,10 +152,11 @@ def build_and_export(npz_path, bvh_path, out, exporter_path):
     from io_anim_bvh import import_bvh
 
     before = set(bpy.data.objects)
-    import_bvh.load(bpy.context, bvh_path, target="ARMATURE", rotate_mode="QUATERNION",
-                    global_scale=float(meta["unit"]), frame_start=1, use_cyclic=False,
-                    global_matrix=Matrix(data["axes4"].tolist()), use_fps_scale=False,
-                    update_scene_fps=False, update_scene_duration=False)
+    with _universal_newline_open(import_bvh):
+        import_bvh.load(bpy.context, bvh_path, target="ARMATURE", rotate_mode="QUATERNION",
+                        global_scale=float(meta["unit"]), frame_start=1, use_cyclic=False,
+                        global_matrix=Matrix(data["axes4"].tolist()), use_fps_scale=False,
+                        update_scene_fps=False, update_scene_duration=False)
     arms = [o for o in bpy.data.objects if o not in before and o.type == "ARMATURE"]
     if len(arms) != 1:
         raise RuntimeError(f"the BVH importer made {len(arms)} armatures")
@@ -150,9 +195,6 @@ def build_and_export(npz_path, bvh_path, out, exporter_path):
     n = int(meta["num_frames"])
     scene.frame_start, scene.frame_end = 1, n
     bpy.context.view_layer.update()
-    spec = importlib.util.spec_from_file_location("sionnafmcw_export", exporter_path)
-    exporter = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(exporter)
     try:
         exporter.export_animation(out, 1, n, radar="radar", velocity_step=float(meta["velocity_step"]))
     except exporter.ExportError as err:
@@ -166,7 +208,12 @@ def main(argv=None) -> int:
         print(ERROR_MARKER + "usage: blender_script.py BODY.npz CLIP.bvh OUT EXPORTER.py", file=sys.stderr)
         return 2
     try:
-        build_and_export(*argv)
+        exporter = load_exporter(argv[3])
+    except ImportError as err:  # the exporter's own one-line refusal (old Blender, numpy missing)
+        print(ERROR_MARKER + " ".join(str(err).split()), file=sys.stderr, flush=True)
+        return 1
+    try:
+        build_and_export(*argv[:3], exporter)
         return 0
     except Exception as err:  # noqa: BLE001 - report everything on one marked line
         traceback.print_exc()
