@@ -1,8 +1,9 @@
 r"""RadHAR's five activities on the mocap body (``sionnafmcw.scenes.radhar``, ``jumping_jacks``, ``squat``,
 ``boxing``) and the mirror of a clip.
 
-* Every class builds in the radar's frame: the person's start point at the range and azimuth asked, the
-  manifest labelled with the class; a user's BVH file plays for any class.
+* Every class builds in the radar's frame: the person's start point (a walk's middle) at the range and
+  azimuth asked, the manifest labelled with the class; a user's BVH file plays for any class; a walk
+  that would run into the radar is an error.
 * Jumping jacks: the hands rise above the head once per jack, and a jack is two hops (feet apart, feet
   together), so the wrists' period is twice the pelvis's; the playback rate divides both.
 * Squats: two of them, each a deep squat: at the bottom the hip joint is no higher than the knee (the
@@ -54,17 +55,22 @@ def _period(signal, fps) -> float:
 @pytest.mark.parametrize("activity", CLASSES)
 def test_every_radhar_class_builds_in_the_radars_frame(tmp_path, activity):
     r, phi = 2.5, 0.3
-    out = scenes.build("radhar", tmp_path / activity, activity=activity, num_frames=3, body_mesh_edge=0.06,
+    n = 5
+    out = scenes.build("radhar", tmp_path / activity, activity=activity, num_frames=n, body_mesh_edge=0.06,
                        person_range=r, person_azimuth=phi, room=False)
     manifest = json.loads((out / "animation.json").read_text())
     assert manifest["activity"]["name"] == activity
     person = manifest["people"]["persons"][0]
     assert person["activity"] == activity
     assert np.allclose(manifest["radar"]["position"], [0.0, 0.0, 1.0])
-    assert np.allclose(person["start"], [r * math.cos(phi), r * math.sin(phi)])
-    pelvis = np.asarray(person["keypoints"])[0, K("pelvis")]
-    assert math.hypot(*pelvis[:2]) == pytest.approx(r, abs=0.3)          # the root starts over its ground point
-    assert person["heading"] == pytest.approx(phi + math.pi)             # facing the radar
+    pelvis = np.asarray(person["keypoints"])[:, K("pelvis"), :2]
+    if activity == "walk":      # the walk's middle at (r, phi), crossing the line of sight
+        assert np.allclose(pelvis[n // 2], [r * math.cos(phi), r * math.sin(phi)], atol=1e-5)
+        assert person["heading"] == pytest.approx(phi + math.pi / 2)
+    else:                       # the root starts over its ground point, facing the radar
+        assert np.allclose(person["start"], [r * math.cos(phi), r * math.sin(phi)])
+        assert np.allclose(pelvis[0], person["start"], atol=1e-5)
+        assert person["heading"] == pytest.approx(phi + math.pi)
     load_animation(out).check_frequency(77e9)
 
 
@@ -77,6 +83,9 @@ def test_a_user_bvh_plays_for_any_class(tmp_path):
     assert manifest["activity"]["name"] == "boxing" and "my_squat.bvh" in manifest["activity"]["motion_source"]
     with pytest.raises(ValueError, match="bvh="):
         scenes.build("radhar", tmp_path / "t", bvh=str(tmp_path / "none.bvh"), num_frames=2, room=False)
+    with pytest.raises(ValueError, match=r"the walk passes 0\.\d\d m from the radar"):
+        scenes.build("radhar", tmp_path / "w", activity="walk", person_range=0.5, heading_offset=math.pi / 2,
+                     num_frames=60, room=False, body_mesh_edge=0.06)
 
 
 @pytest.mark.parametrize("rate", [1.0, 1.5])

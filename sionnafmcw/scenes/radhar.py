@@ -24,7 +24,12 @@ The radar stands at :math:`(0, 0, h)`, ``radar_height`` :math:`h`, its boresight
 tilted down by ``radar_tilt`` :math:`\beta` (boresight :math:`(\cos\beta, 0, -\sin\beta)`). The person
 starts at range ``person_range`` :math:`r` (on the floor) and azimuth ``person_azimuth`` :math:`\varphi`,
 at :math:`(r\cos\varphi, r\sin\varphi)`, and faces the radar turned by ``heading_offset``
-:math:`\delta`: heading :math:`\varphi + \pi + \delta` (:math:`\delta = 0`: facing the radar). With
+:math:`\delta`: heading :math:`\varphi + \pi + \delta` (:math:`\delta = 0`: facing the radar). A walk
+crosses the line of sight instead: heading :math:`\varphi + \pi/2 + \delta` (:math:`\delta = 0`: to
+the radar's left, ``mirror`` or :math:`\delta = \pi` the other way), and :math:`(r, \varphi)` places
+its middle (the pelvis at the middle frame), so that a walk of a few metres at 1-4 m from the radar
+stays in front of it rather than running into it (a pelvis nearer than :data:`MIN_CLEARANCE` is an
+error). With
 ``room`` the room encloses the person's motion and the radar with ``room_margin`` on every side (its
 size), walls, floor and ceiling of the surface materials, and the furniture counts
 (:mod:`.furniture`), placed clear of the person and of the line of sight. The physical ranges a data
@@ -41,6 +46,9 @@ import numpy as np
 from .activities import (WINDOWS, _BOXING, _PERSON, _CLIP_TIME, _ROOM, boxing_person, mocap_person,
                          _room_box)
 from .registry import Parameter, register
+
+#: Least ground distance (m) of a walker's pelvis from the radar.
+MIN_CLEARANCE = 0.5
 
 #: The RadHAR classes, in the data set's order (its folder names: boxing, jack, jump, squats, walk).
 CLASSES = ("boxing", "jumping_jacks", "jump", "squat", "walk")
@@ -90,11 +98,17 @@ def radhar_person(p: dict):
         person, punches = boxing_person(q)
         info.update(motion_source="keyframed straight punches (sionnafmcw.mocap.punches)",
                     punches=punches.to_dict())
-    elif act == "walk" and p["walk_source"] == "boulic":
-        from .people import make_person
-
-        person, extra = make_person("walk", {**q, "walk_speed": p["walk_speed"]}, p["person_height"], p["build"],
-                                    p["seed"], (q["x"], q["y"]), q["heading"])
+    elif act == "walk":
+        q["heading"] = phi + math.pi / 2 + p["heading_offset"]
+        person, extra = _walker(p, q)
+        mid = person.keypoints([person.num_frames // 2])[0, 0, :2]        # the pelvis half-way
+        q["x"], q["y"] = q["x"] + r * math.cos(phi) - mid[0], q["y"] + r * math.sin(phi) - mid[1]
+        person, extra = _walker(p, q)
+        pelvis = person.keypoints()[:, 0, :2]
+        nearest = float(np.min(np.hypot(pelvis[:, 0], pelvis[:, 1])))
+        if nearest < MIN_CLEARANCE:
+            raise ValueError(f"radhar: the walk passes {nearest:.2f} m from the radar (person_range={r:g} m, "
+                             f"{person.num_frames} frames); raise person_range or lower num_frames")
         info.update(extra)
     else:
         clip = "08_10" if act == "walk" else WINDOWS[act][0]
@@ -104,6 +118,18 @@ def radhar_person(p: dict):
                     clip_start_s=person.start)
     info.update(start=[q["x"], q["y"]], heading=q["heading"], mirror=bool(p["mirror"]))
     return person, info
+
+
+def _walker(p: dict, q: dict):
+    """``(person, info)`` of the walk from ``q``'s start point and heading."""
+    if p["walk_source"] == "boulic":
+        from .people import make_person
+
+        return make_person("walk", {**q, "walk_speed": p["walk_speed"]}, p["person_height"], p["build"], p["seed"],
+                           (q["x"], q["y"]), q["heading"])
+    person = mocap_person("08_10", q)
+    return person, {"motion_source": "CMU Graphics Lab Motion Capture Database, clip 08_10", "clip": "08_10",
+                    "clip_start_s": person.start}
 
 
 @register("radhar", "One person doing a RadHAR activity (boxing, jumping jacks, jump, squat, walk) in a room, placed "

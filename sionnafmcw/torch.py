@@ -1,0 +1,180 @@
+r"""Read a generated data set (:mod:`sionnafmcw.dataset`) in PyTorch: a ``torch.utils.data.Dataset``
+and a ``DataLoader`` that pads variable-length point clouds.
+
+::
+
+    import sionnafmcw.torch as storch
+    ds = storch.RadarDataset("data/radhar", features="range_doppler", labels=("activity", "joint_position"),
+                             frames_per_example=60, frame_stride=10, classes=("boxing", "jumping_jacks", "jump",
+                             "squat", "walk"))
+    loader = storch.loader(ds, batch_size=16, shuffle=True, num_workers=2)
+    for batch in loader:
+        x, y = batch["feature"], batch["activity_index"]
+
+Needs PyTorch (``pip install 'sionnafmcw[torch]'``; ``scripts/setup.sh`` installs the CPU build).
+Examples, features and labels are those of :class:`sionnafmcw.dataset.examples.Examples`, the same
+as :mod:`sionnafmcw.tf` gives: windows of :math:`F` consecutive done frames; ``iq`` (complex64
+``[F, chirp, tx, rx, sample]``), ``range_doppler`` (float32 ``[F, doppler, range]``) or
+``micro_doppler`` (float32 ``[velocity, time]``); per-frame labels ``radial_velocity``, ``range``,
+``frame_time``, ``person_count``, ``joint_position`` (the keypoints, ``[F, person, joint, 3]``), and
+per example ``activity``, ``item``, ``scenario``, ``radar``, ``start_frame`` or a scenario parameter.
+An element is a dict: ``feature`` and every label as tensors (strings stay Python strings), plus
+``activity_index`` (int64, the activity's position in ``classes``) when ``classes`` is given.
+
+Point clouds
+------------
+With ``point_cloud`` an element also holds ``point_cloud``, float32 ``[F, N_max, 5]`` (``x, y, z``
+in the sensor's axes, m; ``velocity``, m/s positive receding; ``intensity``, dB) and
+``num_points`` (int64 ``[F]``): a function of one frame's beat cube, ``f(cube [chirp, tx, rx, sample],
+radar, frame_time) -> DetectedPoints | array [N, 5]``, is called per frame (:func:`points_array`
+turns the device's :class:`~sionnafmcw.ti.points.DetectedPoints` into the five columns; intensity is
+RadHAR's: :math:`10\log_{10}(\mathrm{peakVal} + 1)` for SDK 1.x/2.x, the SNR in dB for SDK 3.x, as
+TI's ROS driver reports it). ``point_cloud=True`` uses :func:`ti_point_cloud`, the sensor's own
+on-chip chain (:mod:`sionnafmcw.ti.oob`, the radar's ``.cfg`` processing). Clouds differ in length,
+so the batches of :func:`loader` pad them (:func:`pad_collate`): ``point_cloud`` ``[B, F, N, 5]``
+zero-padded to the batch's most points, ``point_mask`` (bool, True on real points) and
+``num_points`` ``[B, F]``.
+
+Workers: every worker opens its own Zarr stores (the stores are read-only); with ``num_workers > 0``
+the :class:`~sionnafmcw.dataset.examples.Examples` object is pickled into each worker.
+"""
+
+from __future__ import annotations
+
+try:
+    import torch
+    from torch.utils.data import DataLoader, Dataset
+except ImportError as exc:  # pragma: no cover - exercised only without PyTorch
+    raise ImportError(
+        "sionnafmcw.torch needs PyTorch, which is not installed. Install its CPU build with\n"
+        "    pip install torch --index-url https://download.pytorch.org/whl/cpu\n"
+        "(or pip install 'sionnafmcw[torch]', which on Linux takes PyPI's CUDA build, ~3 GB with its libraries)."
+    ) from exc
+
+import numpy as np
+
+from .dataset.examples import FEATURES, FRAME_LABELS, Examples
+
+#: The columns of a point cloud.
+POINT_FIELDS = ("x", "y", "z", "velocity", "intensity")
+
+
+def points_array(points) -> np.ndarray:
+    """``[N, 5]`` float32 (:data:`POINT_FIELDS`) of a :class:`~sionnafmcw.ti.points.DetectedPoints` (module
+    docstring), or of an array ``[N, 5]`` (checked)."""
+    if hasattr(points, "peak_value"):
+        if points.sdk >= 3:
+            intensity = np.asarray(points.snr_db, np.float32)
+        else:
+            intensity = 10.0 * np.log10(np.asarray(points.peak_value, np.float64) + 1.0)
+        cols = [points.x, points.y, points.z, points.velocity, intensity]
+        return np.stack([np.asarray(c, np.float32).reshape(-1) for c in cols], axis=1)
+    arr = np.asarray(points, np.float32)
+    if arr.ndim != 2 or arr.shape[1] != len(POINT_FIELDS):
+        raise ValueError(f"a point cloud must be [N, {len(POINT_FIELDS)}] ({', '.join(POINT_FIELDS)}), got shape "
+                         f"{arr.shape}")
+    return arr
+
+
+def ti_point_cloud(cube, radar, frame_time: float = 0.0):
+    """The point cloud of one frame by the sensor's on-chip chain (:mod:`sionnafmcw.ti.oob`) with the radar's
+    ``.cfg`` processing; a clear error where that chain is not installed."""
+    try:
+        from .ti import oob
+    except ImportError as exc:
+        raise RuntimeError("sionnafmcw.torch: point clouds need the TI on-chip chain sionnafmcw.ti.oob, which this "
+                           "installation of sionnafmcw lacks; pass point_cloud=f, a function of (cube, radar, "
+                           "frame_time), or leave point_cloud off") from exc
+    clouds = oob.run_point_clouds(np.asarray(cube)[None], radar, frame_times=[frame_time])
+    return clouds[0]
+
+
+class RadarDataset(Dataset):
+    """A map-style dataset of the examples of a data set folder (module docstring).
+
+    Parameters
+    ----------
+    path, features, labels, frames_per_example, frame_stride, items, feature_options :
+        as :class:`~sionnafmcw.dataset.examples.Examples` (and :func:`sionnafmcw.tf.dataset`); ``labels``
+        a name or a tuple of names.
+    classes : the activity names, in order: adds ``activity_index`` (needs the ``activity`` label).
+    point_cloud : False, True (:func:`ti_point_cloud`) or a function ``f(cube, radar, frame_time)``.
+    """
+
+    def __init__(self, path, features: str = "range_doppler", labels=("radial_velocity",),
+                 frames_per_example: int = 1, frame_stride: int | None = None, items=None,
+                 feature_options: dict | None = None, classes=None, point_cloud=False):
+        labels = (labels,) if isinstance(labels, str) else tuple(labels)
+        if classes is not None and "activity" not in labels:
+            labels = labels + ("activity",)
+        self.examples = Examples(path, features=features, labels=labels, frames_per_example=frames_per_example,
+                                 frame_stride=frame_stride, items=items, feature_options=feature_options)
+        self.labels = self.examples.labels
+        self.classes = None if classes is None else tuple(str(c) for c in classes)
+        if point_cloud is True:
+            point_cloud = ti_point_cloud
+        if point_cloud is not False and point_cloud is not None and not callable(point_cloud):
+            raise ValueError("point_cloud must be False, True (the TI chain) or a function f(cube, radar, frame_time)")
+        self.point_cloud = point_cloud or None
+
+    def __len__(self) -> int:
+        return len(self.examples)
+
+    def __getitem__(self, k: int) -> dict:
+        ex = self.examples
+        e = ex.examples[int(k)]
+        frame = ex.frame_labels(e)
+        cubes = ex.cubes(e)
+        out = {"feature": torch.from_numpy(np.ascontiguousarray(ex.feature(e, cubes, frame["frame_time"])))}
+        for name in self.labels:
+            value = frame[name] if name in FRAME_LABELS else ex.item_label(name, e)
+            out[name] = value if isinstance(value, str) else torch.as_tensor(np.asarray(value))
+        if self.classes is not None:
+            act = out["activity"]
+            if act not in self.classes:
+                raise ValueError(f"example {k} (item {e.item}) has activity {act!r}, not one of classes="
+                                 f"{list(self.classes)}")
+            out["activity_index"] = torch.tensor(self.classes.index(act), dtype=torch.int64)
+        if self.point_cloud is not None:
+            clouds = [points_array(self.point_cloud(c, ex.radar, float(t))) for c, t in zip(cubes, frame["frame_time"])]
+            out["num_points"] = torch.tensor([len(c) for c in clouds], dtype=torch.int64)
+            out["point_cloud"] = [torch.from_numpy(c) for c in clouds]
+        return out
+
+
+def pad_collate(batch: list) -> dict:
+    """Collate dataset elements (dicts) into a batch: tensors stacked, strings listed, point clouds padded
+    with zeros to the batch's most points, ``point_mask`` [B, F, N] True on real points."""
+    out = {}
+    for key in batch[0]:
+        values = [b[key] for b in batch]
+        if key == "point_cloud":
+            frames = len(values[0])
+            most = max([len(c) for v in values for c in v] + [0])
+            cloud = torch.zeros((len(values), frames, most, len(POINT_FIELDS)), dtype=torch.float32)
+            mask = torch.zeros((len(values), frames, most), dtype=torch.bool)
+            for i, v in enumerate(values):
+                for f, c in enumerate(v):
+                    cloud[i, f, :len(c)] = c
+                    mask[i, f, :len(c)] = True
+            out["point_cloud"], out["point_mask"] = cloud, mask
+        elif isinstance(values[0], torch.Tensor):
+            out[key] = torch.stack(values)
+        else:
+            out[key] = list(values)
+    return out
+
+
+def loader(dataset: RadarDataset, batch_size: int = 8, shuffle: bool = False, num_workers: int = 0,
+           seed: int | None = None, **kwargs) -> DataLoader:
+    """A ``torch.utils.data.DataLoader`` over ``dataset`` with :func:`pad_collate`; ``seed`` fixes the
+    shuffle (a ``torch.Generator``); other keyword arguments go to ``DataLoader``."""
+    gen = None
+    if seed is not None:
+        gen = torch.Generator()
+        gen.manual_seed(int(seed))
+    return DataLoader(dataset, batch_size=batch_size, shuffle=shuffle, num_workers=num_workers,
+                      collate_fn=pad_collate, generator=gen, persistent_workers=False, **kwargs)
+
+
+__all__ = ["FEATURES", "POINT_FIELDS", "RadarDataset", "loader", "pad_collate", "points_array", "ti_point_cloud"]
