@@ -110,6 +110,7 @@ class RadarDataset(Dataset):
         self.examples = Examples(path, features=features, labels=labels, frames_per_example=frames_per_example,
                                  frame_stride=frame_stride, items=items, feature_options=feature_options)
         self.labels = self.examples.labels
+        self._dtypes = {n: self.examples.label_dtype(n)[0] for n in self.labels}   # as sionnafmcw.tf casts them
         self.classes = None if classes is None else tuple(str(c) for c in classes)
         if point_cloud is True:
             point_cloud = ti_point_cloud
@@ -128,7 +129,8 @@ class RadarDataset(Dataset):
         out = {"feature": torch.from_numpy(np.ascontiguousarray(ex.feature(e, cubes, frame["frame_time"])))}
         for name in self.labels:
             value = frame[name] if name in FRAME_LABELS else ex.item_label(name, e)
-            out[name] = value if isinstance(value, str) else torch.as_tensor(np.asarray(value))
+            dtype = self._dtypes[name]
+            out[name] = str(value) if dtype is str else torch.as_tensor(np.asarray(value, dtype=dtype))
         if self.classes is not None:
             act = out["activity"]
             if act not in self.classes:

@@ -54,7 +54,6 @@ RADHAR_RANGES = {
     "chairs": ({"choice": [0, 1, 2, 3, 4]}, "clutter: chairs"),
     "shelves": ({"choice": [0, 1]}, "furniture against a wall"),
     "cabinets": ({"choice": [0, 1]}, "metal cabinets: strong static reflectors"),
-    "monitors": ({"choice": [0, 1]}, "clutter: a monitor on a table (glass and metal)"),
 }
 #: ``{RadarConfig field: (draw, why)}``: receiver fields drawn per item (module docstring).
 RADAR_RANGES = {
