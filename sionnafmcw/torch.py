@@ -4,7 +4,7 @@ and a ``DataLoader`` that pads variable-length point clouds.
 ::
 
     import sionnafmcw.torch as storch
-    ds = storch.RadarDataset("data/radhar", features="range_doppler", labels=("activity", "joint_position"),
+    ds = storch.RadarDataset("data/radhar", features="range_doppler", labels=("person_activity", "joint_position"),
                              frames_per_example=60, frame_stride=10, classes=("boxing", "jumping_jacks", "jump",
                              "squat", "walk"))
     loader = storch.loader(ds, batch_size=16, shuffle=True, num_workers=2)
@@ -17,9 +17,9 @@ as :mod:`sionnafmcw.tf` gives: windows of :math:`F` consecutive done frames; ``i
 ``[F, chirp, tx, rx, sample]``), ``range_doppler`` (float32 ``[F, doppler, range]``) or
 ``micro_doppler`` (float32 ``[velocity, time]``); per-frame labels ``radial_velocity``, ``range``,
 ``frame_time``, ``person_count``, ``joint_position`` (the keypoints, ``[F, person, joint, 3]``), and
-per example ``activity``, ``item``, ``scenario``, ``radar``, ``start_frame`` or a scenario parameter.
+per example ``person_activity`` (the first person's, from the run store), ``item``, ``scenario``, ``radar``, ``start_frame`` or a scenario parameter.
 An element is a dict: ``feature`` and every label as tensors (strings stay Python strings), plus
-``activity_index`` (int64, the activity's position in ``classes``) when ``classes`` is given.
+``activity_index`` (int64, the position of ``person_activity`` in ``classes``) when ``classes`` is given.
 
 Point clouds
 ------------
@@ -97,7 +97,7 @@ class RadarDataset(Dataset):
     path, features, labels, frames_per_example, frame_stride, items, feature_options :
         as :class:`~sionnafmcw.dataset.examples.Examples` (and :func:`sionnafmcw.tf.dataset`); ``labels``
         a name or a tuple of names.
-    classes : the activity names, in order: adds ``activity_index`` (needs the ``activity`` label).
+    classes : the activity names, in order: adds ``activity_index`` (and the ``person_activity`` label).
     point_cloud : False, True (:func:`ti_point_cloud`) or a function ``f(cube, radar, frame_time)``.
     """
 
@@ -105,8 +105,8 @@ class RadarDataset(Dataset):
                  frames_per_example: int = 1, frame_stride: int | None = None, items=None,
                  feature_options: dict | None = None, classes=None, point_cloud=False):
         labels = (labels,) if isinstance(labels, str) else tuple(labels)
-        if classes is not None and "activity" not in labels:
-            labels = labels + ("activity",)
+        if classes is not None and "person_activity" not in labels:
+            labels = labels + ("person_activity",)
         self.examples = Examples(path, features=features, labels=labels, frames_per_example=frames_per_example,
                                  frame_stride=frame_stride, items=items, feature_options=feature_options)
         self.labels = self.examples.labels
@@ -132,7 +132,7 @@ class RadarDataset(Dataset):
             dtype = self._dtypes[name]
             out[name] = str(value) if dtype is str else torch.as_tensor(np.asarray(value, dtype=dtype))
         if self.classes is not None:
-            act = out["activity"]
+            act = out["person_activity"]
             if act not in self.classes:
                 raise ValueError(f"example {k} (item {e.item}) has activity {act!r}, not one of classes="
                                  f"{list(self.classes)}")

@@ -12,6 +12,9 @@ r"""RadHAR's five activities on the mocap body (``sionnafmcw.scenes.radhar``, ``
 * Boxing: the fists peak at ``fist_speed`` (the minimum-jerk stroke's peak :math:`15D/(8T)`; the slerp
   between the keyframes at 480 per s and the 960 fps differences leave < 0.5 %, measured to converge as
   :math:`h^2`), the punches alternate sides, every fist reaches ``REACH`` of its arm.
+* Jumps in place: in flight the pelvis falls freely (its second difference is :math:`-g` to 1e-5 m/s^2:
+  at 240 fps every frame falls on a keyframe, where the root's height is the ballistic formula's), rises ``jump_height`` above standing, and the feet leave the floor for
+  :math:`2\sqrt{2h/g}`; on the floor the ankles do not move.
 * Mirror: joint :math:`j` of the mirrored clip is at :math:`\mathbf M\mathbf o_{\bar j}` of the original
   (:math:`\mathbf M` = diag(-1, 1, 1), BVH axes), its world rotation :math:`\mathbf M\mathbf R_{\bar j}\mathbf M`.
 """
@@ -30,7 +33,8 @@ from sionnafmcw.mocap import library
 from sionnafmcw.mocap.mirror import MIRROR, counterpart, mirrored
 from sionnafmcw.mocap.punches import FIST_SPEED_RANGE, REACH
 from sionnafmcw.mocap.skeleton import ClipMotion
-from sionnafmcw.scenes.activities import boxing_person, mocap_person
+from sionnafmcw.mocap.jumps import G
+from sionnafmcw.scenes.activities import boxing_person, jump_in_place_person, mocap_person
 from sionnafmcw.scenes.keypoints import KEYPOINTS
 from sionnafmcw.scenes.radhar import CLASSES
 
@@ -135,6 +139,27 @@ def test_boxing_fists_peak_at_the_measured_speed():
         assert reach == pytest.approx(REACH * arm, rel=0.01)
     with pytest.raises(ValueError, match="fist_speed"):
         boxing_person(_params("boxing", fist_speed=20.0))
+
+
+def test_jumps_in_place_fly_ballistically():
+    fps, h = 240.0, 0.2
+    person = jump_in_place_person(_params("jump_in_place", fps=fps, num_frames=int(3.0 * fps), jump_height=h))
+    kp = person.keypoints().astype(float)
+    pelvis = kp[:, K("pelvis"), 2]
+    ankles = kp[:, [K("left_ankle"), K("right_ankle")], 2]
+    standing = pelvis[0]
+    assert pelvis.max() - standing == pytest.approx(h, abs=1e-3)            # apex: the frame grid within 1 mm
+    air = ankles.min(axis=1) > ankles[0].min() + 1e-6
+    rises = np.flatnonzero(air[1:] & ~air[:-1])
+    falls = np.flatnonzero(~air[1:] & air[:-1])
+    assert len(rises) == len(falls) == 2                                   # two jumps in 3 s at 0.75/s
+    flight = 2 * math.sqrt(2 * h / G)
+    for a, b in zip(rises, falls):
+        assert (b - a) / fps == pytest.approx(flight, abs=1.5 / fps)        # a frame at each end
+        acc = np.diff(pelvis[a + 2:b - 1], 2) * fps**2
+        assert np.allclose(acc, -G, rtol=0, atol=1e-5)                     # 240 fps falls on the keyframes
+    ground = ~air
+    assert np.ptp(ankles[ground], axis=0).max() < 1e-6                     # feet flat and still on the floor
 
 
 def test_mirror_reflects_the_skeleton_left_for_right():

@@ -101,7 +101,7 @@ def test_randomised_items_reach_the_stores_and_the_scenes(data):
 
 @pytest.mark.slow
 def test_dataset_activity_and_keypoints_equal_the_stores(data):
-    ds = storch.RadarDataset(data, features="range_doppler", labels=("activity", "joint_position", "range"),
+    ds = storch.RadarDataset(data, features="range_doppler", labels=("person_activity", "joint_position", "range"),
                              frames_per_example=2, classes=CLASSES)
     assert len(ds) == 5
     for k in range(len(ds)):
@@ -111,7 +111,7 @@ def test_dataset_activity_and_keypoints_equal_the_stores(data):
         assert e["feature"].dtype == torch.float32 and tuple(e["feature"].shape) == (2, 16, 64)
         rd = processing.range_doppler_map(run.cubes(slice(0, 1))[0], run.radar, clutter_removal=True).power
         assert np.allclose(e["feature"][0].numpy(), 10 * np.log10(np.maximum(rd, 1e-30)), atol=1e-3)
-        assert e["activity"] == CLASSES[k] and int(e["activity_index"]) == k
+        assert e["person_activity"] == CLASSES[k] and int(e["activity_index"]) == k
         assert np.allclose(e["joint_position"].numpy()[:, 0], run.joint_positions()[:2, 0], atol=1e-6)
         assert e["range"].shape == (2,)
 
@@ -149,8 +149,8 @@ def test_features_equal_processing_and_errors_are_clear(plates):
     rd = processing.range_doppler_map(run.cubes(slice(1, 2))[0], run.radar, clutter_removal=True).power
     assert np.allclose(e["feature"][1].numpy(), 10 * np.log10(np.maximum(rd, 1e-30)), atol=1e-3)
     assert np.allclose(e["radial_velocity"].numpy(), run.truth(run.objects[0])[:2])
-    with pytest.raises(ValueError, match="label 'activity' needs a data set of people"):
-        storch.RadarDataset(plates, labels="activity")
+    with pytest.raises(ValueError, match="label 'person_activity' needs a data set of people"):
+        storch.RadarDataset(plates, labels="person_activity")
     with pytest.raises(ValueError, match="point_cloud must be"):
         storch.RadarDataset(plates, point_cloud="ti")
     with pytest.raises(ValueError, match=r"must be \[N, 5\]"):

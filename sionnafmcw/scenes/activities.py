@@ -23,6 +23,8 @@ builder             motion source
 ``pick_up``         CMU ``115_06`` (picking a box up, bending the knees, subject 115)
 ``jumping_jacks``   CMU ``13_29`` frames 1-480 (subject 13): seven jumping jacks in 4 s
 ``squat``           CMU ``13_29`` frames 3800-4520 (subject 13): stands, two deep squats, stands
+``jump_in_place``   keyframed: countermovement jumps in place, ballistic flight, the legs by inverse
+                    kinematics, on subject 13's standing posture (:mod:`sionnafmcw.mocap.jumps`)
 ``boxing``          keyframed: straight punches of both fists in turn, minimum-jerk fist paths at a measured
                     peak fist speed, the arms by inverse kinematics, on subject 13's standing posture
                     (:mod:`sionnafmcw.mocap.punches`; no boxing clip is shipped)
@@ -70,7 +72,7 @@ WINDOWS = {"run": ("09_01", None, None), "stand_up": ("111_10", None, 2.0), "sit
            "wave": ("111_37", None, None), "jump": ("75_10", None, None), "fall": ("90_18", None, None),
            "pick_up": ("115_06", None, None), "jumping_jacks": ("13_29_jacks", None, None),
            "squat": ("13_29_squats", None, None)}
-#: The standing posture the keyframed activities (``boxing``) animate: ``(clip, clip time s)``, subject 13
+#: The standing posture the keyframed activities (``boxing``, ``jump_in_place``) animate: ``(clip, clip time s)``, subject 13
 #: as the jumping jacks and the squats.
 BOXING_POSTURE = ("13_29_squats", 0.05)
 
@@ -262,6 +264,55 @@ def boxing_person(p: dict):
     return person, punches
 
 
+_JUMP = {
+    "jump_height": Parameter(0.15, float, "m", "apex rise of the pelvis in flight (0.05 m a hop, 0.45 m a maximal "
+                             "countermovement jump)", low=0.05, high=0.45),
+    "crouch": Parameter(0.15, float, "m", "depth of the countermovement and of the landing", low=0.05, high=0.35),
+    "jump_rate": Parameter(0.75, float, "1/s", "jumps per second", low=0.2, high=1.5),
+}
+
+
+def jump_in_place_person(p: dict):
+    """The :class:`~sionnafmcw.mocap.person.MocapPerson` of jumps in place
+    (:func:`sionnafmcw.mocap.jumps.jump_clip`) with the parameters ``p`` of ``jump_in_place``: the posture
+    :data:`BOXING_POSTURE`, ``num_frames`` at ``fps`` (0: 4 s)."""
+    from ..mocap.jumps import jump_clip
+    from ..mocap.library import load_clip
+    from ..mocap.segments import leg_stature
+    from ..mocap.skeleton import CMU_UNIT, ClipMotion
+
+    clip_name, t = BOXING_POSTURE
+    base = load_clip(clip_name)
+    unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(base, CMU_UNIT))
+    n = p["num_frames"] or int(round(4.0 * p["fps"]))
+    duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
+    clip = jump_clip(base, t, unit, duration, jump_height=p["jump_height"], crouch=p["crouch"],
+                     jump_rate=p["jump_rate"])
+    return mocap_person(clip, {**p, "num_frames": n, "unit": unit, "skip_first_frame": False})
+
+
+@register("jump_in_place", "A person jumping in place: countermovement jumps with ballistic flight, keyframed on "
+          "the CMU skeleton of subject 13 (no capture of a jump in place is shipped).", {**_mocap_params(2.5), **_JUMP})
+def jump_in_place(out, **p):
+    """Countermovement jumps in place on a standing posture (:mod:`sionnafmcw.mocap.jumps`)."""
+    from ..mocap.library import ACKNOWLEDGEMENT
+    from ..mocap.scene import radar_in_front, radar_orientation, write_people
+
+    person = jump_in_place_person(p)
+    radar, target = radar_in_front((p["x"], p["y"]), p["heading"] + p["radar_azimuth"], p["radar_distance"],
+                                   p["radar_height"])
+    target[2] = p["radar_target_height"]
+    box, opts, pieces = _room_box([(person, "")], radar, p)
+    extra = {"activity": {"name": "jump_in_place", "motion_source": "keyframed countermovement jumps (ballistic "
+                          f"flight, leg inverse kinematics) on the standing posture of CMU clip {BOXING_POSTURE[0]} "
+                          f"at {BOXING_POSTURE[1]} s", "jump_height_m": p["jump_height"], "crouch_m": p["crouch"],
+                          "jump_rate_hz": p["jump_rate"], "stature_m": person.body.height,
+                          "acknowledgement": ACKNOWLEDGEMENT}}
+    write_people(out, [(person, "")], radar, radar_orientation(radar, target), p["skin_scattering"], box, opts, extra,
+                 activities=["jump"], furniture=pieces,
+                 person_info=[{"height_m": person.body.height, "build": p["build"], "clip": BOXING_POSTURE[0]}])
+
+
 @register("boxing", "A person shadow boxing: straight punches, fists in turn, keyframed on the CMU skeleton of "
           "subject 13 (no boxing clip is shipped).", {**_mocap_params(2.5), **_BOXING})
 def boxing(out, **p):
@@ -423,6 +474,6 @@ def vital_signs(out, posture, **p):
     _write_still(out, "vital_signs", posture, p)
 
 
-__all__ = ["BOXING_POSTURE", "SWAY_DEFAULT", "WINDOWS", "boxing", "boxing_person", "fall", "jump", "jumping_jacks",
+__all__ = ["BOXING_POSTURE", "SWAY_DEFAULT", "WINDOWS", "boxing", "boxing_person", "fall", "jump", "jump_in_place", "jump_in_place_person", "jumping_jacks",
            "mocap_clip", "mocap_person", "pick_up", "run", "sit_down", "squat",
            "stand_still", "stand_up", "still_person", "vital_signs", "wave"]

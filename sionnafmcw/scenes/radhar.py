@@ -8,7 +8,8 @@ RadHAR data set (Singh et al., mmNets 2019) in front of a radar:
 =================  ========================================================================================
 ``boxing``         keyframed straight punches (:func:`sionnafmcw.scenes.activities.boxing_person`)
 ``jumping_jacks``  CMU ``13_29`` frames 1-480 (``jumping_jacks``)
-``jump``           CMU ``75_10``: one long jump forward (``jump``)
+``jump``           ``jump_style``: ``in_place`` keyframed countermovement jumps (``jump_in_place``),
+                   ``forward`` CMU ``75_10``, one long jump (``jump``)
 ``squat``          CMU ``13_29`` frames 3800-4520, two deep squats (``squat``)
 ``walk``           ``walk_source``: ``clip`` CMU ``08_10`` (walks 3.7 m, subject 8), ``boulic`` the
                    Boulic-Thalmann walker on a straight track at ``walk_speed``
@@ -43,8 +44,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .activities import (WINDOWS, _BOXING, _PERSON, _CLIP_TIME, _ROOM, boxing_person, mocap_person,
-                         _room_box)
+from .activities import (WINDOWS, _BOXING, _CLIP_TIME, _JUMP, _PERSON, _ROOM, boxing_person, jump_in_place_person,
+                         mocap_person, _room_box)
 from .registry import Parameter, register
 
 #: Least ground distance (m) of a walker's pelvis from the radar.
@@ -58,6 +59,8 @@ RADHAR_FOLDERS = {"boxing": "boxing", "jumping_jacks": "jack", "jump": "jump", "
 PARAMETERS = {
     "activity": Parameter("walk", str, "", "the RadHAR class", choices=CLASSES),
     "bvh": Parameter("", str, "", "path of a BVH file whose motion replaces the class's (empty: the class's own)"),
+    "jump_style": Parameter("in_place", str, "", "jump: in place (keyframed countermovement jumps) or forward "
+                            "(CMU clip 75_10, one long jump)", choices=("in_place", "forward")),
     "walk_source": Parameter("clip", str, "", "walk: CMU clip 08_10 or the Boulic-Thalmann walker",
                              choices=("clip", "boulic")),
     "walk_speed": Parameter(1.2, float, "m/s", "walk with walk_source=boulic: walking speed", low=0.3, high=2.0),
@@ -76,6 +79,7 @@ PARAMETERS = {
        "room_margin": Parameter(1.5, float, "m", "free space between the scene and the walls (the room's size)",
                                 low=0.1, high=20.0)},
     **_BOXING,
+    **_JUMP,
 }
 
 
@@ -98,6 +102,9 @@ def radhar_person(p: dict):
         person, punches = boxing_person(q)
         info.update(motion_source="keyframed straight punches (sionnafmcw.mocap.punches)",
                     punches=punches.to_dict())
+    elif act == "jump" and p["jump_style"] == "in_place":
+        person = jump_in_place_person(q)
+        info.update(motion_source="keyframed countermovement jumps in place (sionnafmcw.mocap.jumps)")
     elif act == "walk":
         q["heading"] = phi + math.pi / 2 + p["heading_offset"]
         person, extra = _walker(p, q)
