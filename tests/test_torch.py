@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import logging
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -28,7 +29,7 @@ import torch
 
 from sionnafmcw import dataset, open_run, processing
 from sionnafmcw.dataset import load_spec
-from sionnafmcw.dataset.randomisation import RADAR_RANGES, RADHAR_RANGES, radhar_spec
+from sionnafmcw.dataset.randomisation import RADAR_RANGES, RADHAR_RANGES, radhar_spec, range_table
 from sionnafmcw.scenes.radhar import CLASSES
 
 FIELDS = ("person_range", "person_azimuth", "heading_offset", "radar_height", "radar_tilt", "room_margin")
@@ -82,6 +83,8 @@ def test_spec_draws_every_item_within_the_ranges():
         assert all(_in(it.radar[name], draw) for it in items), name
         assert len({str(it.radar[name]) for it in items}) > 1, name
     assert load_spec(_spec()).item(3).radar == load_spec(_spec() | {"count": 9}).item(3).radar   # per item
+    guide = Path(__file__).resolve().parents[1] / "docs" / "guide" / "datasets.md"
+    assert range_table() in guide.read_text()                   # the guide states the ranges the code draws
 
 
 @pytest.mark.slow

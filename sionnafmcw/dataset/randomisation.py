@@ -31,12 +31,19 @@ RADHAR_RANGES = {
     "person_height": ({"uniform": [1.55, 1.95]}, "adult statures, short women to tall men; the clips are scaled "
                       "to it, so limb lengths and speeds follow"),
     "build": ({"choice": ["male", "female"]}, "girths of men or women (Heinz et al. 2003)"),
-    "playback_rate": ({"uniform": [0.8, 1.25]}, "+-20-25 % in tempo: people repeat the same movement faster or "
-                      "slower (an assumed spread, not a measured one)"),
+    "playback_rate": ({"uniform": [0.8, 1.1]}, "-20 to +10 % in tempo: people repeat the same movement faster or "
+                      "slower (an assumed spread, not a measured one); +10 % at most so that 60 frames at 30 fps "
+                      "fit in the 2.29 s walk clip"),
+    "walk_source": ({"choice": ["clip", "boulic"]}, "walk: captured (CMU 08_10) or the Boulic-Thalmann walker"),
     "mirror": ({"choice": [False, True]}, "either side leads (left- and right-handed, either foot first)"),
     "fist_speed": ({"uniform": [4.0, 9.0]}, "boxing: straight punches of recreational to trained boxers (6.3 m/s "
                    "jab of juniors, 7.5-9.3 m/s in combinations and maximal punches; sionnafmcw.mocap.punches)"),
     "punch_rate": ({"uniform": [1.0, 3.0]}, "boxing: shadow-boxing tempo, one to three punches a second"),
+    "jump_height": ({"uniform": [0.08, 0.3]}, "jump: apex rise of repeated jumps in place, a hop to a brisk jump "
+                    "(a maximal countermovement jump reaches about 0.45 m)"),
+    "crouch": ({"uniform": [0.08, 0.2]}, "jump: depth of the countermovement and of the landing"),
+    "jump_rate": ({"uniform": [0.5, 0.7]}, "jump: repeated jumps with a stand in between; at most 0.7/s so that "
+                  "the slowest jump of these ranges (1.4 s) fits"),
     "radar_height": ({"uniform": [0.8, 1.5]}, "a sensor on a desk or a tripod at chest height (not published for "
                      "RadHAR; its point clouds' z spread of +-0.5-1.5 m about the sensor suits a sensor near mid "
                      "height of the person)"),
