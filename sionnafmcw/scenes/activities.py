@@ -143,10 +143,12 @@ def _room_box(people, radar_position, p):
     return box, opts, pieces
 
 
-def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False):
+def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False, unit: float | None = None,
+                 keyframed: bool = False):
     """The :class:`~sionnafmcw.mocap.person.MocapPerson` of an activity's parameters ``p`` on the shipped
     clip ``clip_name`` (or a parsed :class:`~sionnafmcw.mocap.bvh.BvhClip`) between clip times ``start``
-    and ``end`` (None: the clip's usable ends)."""
+    and ``end`` (None: the clip's usable ends); ``unit`` (m per file unit) defaults to the one that makes
+    the skeleton ``person_height`` tall; ``keyframed``: the clip's frame 0 is motion, not a T-pose."""
     from ..mocap.bvh import BvhClip
     from ..mocap.segments import leg_stature
     from ..mocap.library import load_clip
@@ -161,8 +163,9 @@ def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False
         from ..mocap.mirror import mirrored
 
         clip = mirrored(clip)
-    unit = p.get("unit") or CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(clip, CMU_UNIT))
-    lo = (clip.frame_time if p.get("skip_first_frame", True) else 0.0) if start is None else float(start)
+    if unit is None:
+        unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(clip, CMU_UNIT))
+    lo = (0.0 if keyframed else clip.frame_time) if start is None else float(start)
     hi = clip.duration if end is None else float(end)
     rate = p["playback_rate"]
     t0 = (hi - p["time_offset"]) if reverse else (lo + p["time_offset"])
@@ -178,7 +181,7 @@ def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False
                          f"{p['time_offset']} s")
     return MocapPerson(clip, unit=unit, fps=p["fps"], num_frames=n, start=t0, playback_rate=rate,
                        position=(p["x"], p["y"]), heading=p["heading"], height=p["person_height"], build=p["build"],
-                       mesh_edge=p["body_mesh_edge"], reverse=reverse, skip_first_frame=p.get("skip_first_frame", True))
+                       mesh_edge=p["body_mesh_edge"], reverse=reverse, skip_first_frame=not keyframed)
 
 
 def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=None):
@@ -260,7 +263,7 @@ def boxing_person(p: dict):
     duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
     clip, punches = boxing_clip(base, t, unit, duration, fist_speed=p["fist_speed"], punch_rate=p["punch_rate"],
                                 retraction_ratio=p["retraction_ratio"], seed=p["seed"])
-    person = mocap_person(clip, {**p, "num_frames": n, "unit": unit, "skip_first_frame": False})
+    person = mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
     return person, punches
 
 
@@ -288,7 +291,7 @@ def jump_in_place_person(p: dict):
     duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
     clip = jump_clip(base, t, unit, duration, jump_height=p["jump_height"], crouch=p["crouch"],
                      jump_rate=p["jump_rate"])
-    return mocap_person(clip, {**p, "num_frames": n, "unit": unit, "skip_first_frame": False})
+    return mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
 
 
 @register("jump_in_place", "A person jumping in place: countermovement jumps with ballistic flight, keyframed on "
