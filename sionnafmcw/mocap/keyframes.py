@@ -121,14 +121,16 @@ class HeldPosture:
 
 
 def place_limb(pose: HeldPosture, root: str, middle: str, end: str, root_pos, target, pole,
-               parent_world=None, end_world=None, what: str = "limb") -> np.ndarray:
+               parent_world=None, end_world=None, extension: float = 0.0, what: str = "limb") -> np.ndarray:
     """Put joint ``end`` on ``target`` [n, 3] (module docstring) with the limb's root joint at ``root_pos``
     [n, 3] (its posture's position when the body does not move), the middle joint towards ``pole`` ([3] or
     [n, 3]); ``parent_world`` the root's parent's world rotation (default the posture's), ``end_world`` a world
-    rotation [3, 3] to hold the end joint at (default: its local rotation kept). Writes the channels of
-    ``root`` and ``middle`` (and ``end`` with ``end_world``); returns the middle joint's positions [n, 3]."""
+    rotation [3, 3] to hold the end joint at (default: its local rotation kept). With ``extension`` (file
+    units) the point that far beyond ``end`` along the last bone goes on ``target`` instead (the tip of a
+    hand held straight: :math:`L_2` becomes :math:`L_2` + ``extension``). Writes the channels of ``root``
+    and ``middle`` (and ``end`` with ``end_world``); returns the middle joint's positions [n, 3]."""
     jr, jm, je = pose.joint(root), pose.joint(middle), pose.joint(end)
-    l1, l2 = pose.bone(middle), pose.bone(end)
+    l1, l2 = pose.bone(middle), pose.bone(end) + float(extension)
     s = np.broadcast_to(np.asarray(root_pos, float), np.shape(target))
     n = len(target)
     d_vec = target - s

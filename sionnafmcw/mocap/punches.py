@@ -27,10 +27,15 @@ boxers 9.26 +/- 2.09 m/s for single maximal punches, 7.49-8.01 +/- 2.3-2.5 m/s i
 3 m/s (a combination punch two standard deviations below the mean: relaxed shadow boxing) to 11 m/s
 (a single maximal punch one standard deviation above).
 
+The point that follows the path is the fist's tip: the far end of the hand, which the segment body
+holds straight along the forearm (:mod:`.segments`, an ellipsoid of the hand's length
+:math:`L_h` beyond the wrist), so no surface of the arm moves faster than the measured fist speed
+(the wrist, nearer the elbow, is slower while the forearm turns).
+
 Geometry (BVH axes, file units)
 -------------------------------
-With the shoulder :math:`\mathbf s` (joint ``{Side}Arm``), the upper arm :math:`L_1` and forearm
-:math:`L_2` (the offsets of ``{Side}ForeArm`` and ``{Side}Hand``), the body's up :math:`\hat{\mathbf u}`
+With the shoulder :math:`\mathbf s` (joint ``{Side}Arm``), the upper arm :math:`L_1` and forearm with
+the hand :math:`L_2` (the offsets of ``{Side}ForeArm`` and ``{Side}Hand``, plus :math:`L_h`), the body's up :math:`\hat{\mathbf u}`
 (+y), left :math:`\hat{\mathbf l}` (right shoulder to left, horizontal) and forward
 :math:`\hat{\mathbf f} = \hat{\mathbf l}\times\hat{\mathbf u}`:
 
@@ -39,6 +44,7 @@ With the shoulder :math:`\mathbf s` (joint ``{Side}Arm``), the upper arm :math:`
   in front of the chin;
 * target: the point straight ahead of the mid-shoulders, :math:`\mathbf c + \sqrt{(rL)^2 - w^2}\,
   \hat{\mathbf f}`, at :math:`rL` from the shoulder (reach :math:`r` = 0.92: an almost straight elbow);
+  the guard and the target are places of the fist's tip;
 * the arms by two-link inverse kinematics (:func:`~.keyframes.place_limb`), the elbow towards the pole
   :math:`-\hat{\mathbf u} - 0.6\hat{\mathbf f} + 0.3\sigma\hat{\mathbf l}` (down, back under the fist in
   the guard, and out), on :data:`~.keyframes.KEYFRAME_RATE` keyframes a second.
@@ -87,10 +93,11 @@ class Punches:
 
 def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, fist_speed: float = FIST_SPEED,
                 punch_rate: float = 2.0, retraction_ratio: float = 1.5, lead: str = "left", seed: int = 0,
-                frame_rate: float = KEYFRAME_RATE) -> tuple[BvhClip, Punches]:
+                hand_length: float = 0.0, frame_rate: float = KEYFRAME_RATE) -> tuple[BvhClip, Punches]:
     r"""Shadow boxing (module docstring) on the posture of ``base`` at clip time ``base_time``.
 
-    ``unit`` (m per file unit) turns ``fist_speed`` (m/s, peak) into the clip's units; punches come
+    ``unit`` (m per file unit) turns ``fist_speed`` (m/s, peak) and ``hand_length`` (m: the fist's tip lies
+    that far beyond the wrist, along the forearm) into the clip's units; punches come
     ``1/punch_rate`` s apart on average (each start jittered uniformly by +-20 % of that), alternating
     sides from ``lead``; ``seed`` draws the jitter. Returns the clip (``duration`` s at ``frame_rate``
     frames per second; frame 0 is a frame of the motion, not a T-pose) and its :class:`Punches`.
@@ -110,9 +117,10 @@ def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, f
     shoulders = {side: ow[pose.joint(f"{S}Arm")] for side, S in (("left", "Left"), ("right", "Right"))}
     half_width = 0.5 * np.linalg.norm(shoulders["left"] - shoulders["right"])
     centre = 0.5 * (shoulders["left"] + shoulders["right"])
+    hand = hand_length / unit
     geometry = {}
     for side, S in (("left", "Left"), ("right", "Right")):
-        arm = pose.bone(f"{S}ForeArm") + pose.bone(f"{S}Hand")
+        arm = pose.bone(f"{S}ForeArm") + pose.bone(f"{S}Hand") + hand
         sigma = 1.0 if side == "left" else -1.0
         guard = shoulders[side] + arm * (0.30 * fwd + 0.08 * up) - 0.3 * half_width * sigma * left
         target = centre + math.sqrt(max((REACH * arm) ** 2 - half_width**2, 0.0)) * fwd
@@ -144,7 +152,7 @@ def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, f
     for side, (S, sigma, guard, target) in geometry.items():
         u = punches.stroke(side, pose.times)[:, None]
         place_limb(pose, f"{S}Arm", f"{S}ForeArm", f"{S}Hand", shoulders[side], guard + (target - guard) * u,
-                   -up - 0.6 * fwd + 0.3 * sigma * left, what=f"{side} fist")
+                   -up - 0.6 * fwd + 0.3 * sigma * left, extension=hand, what=f"{side} fist")
     return pose.clip("boxing"), punches
 
 

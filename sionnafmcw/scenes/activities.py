@@ -252,6 +252,7 @@ def boxing_person(p: dict):
     parameters ``p`` of the ``boxing`` builder: the posture :data:`BOXING_POSTURE`, ``num_frames`` at ``fps``
     (0: 4 s), the fists at ``fist_speed``, mirrored with ``mirror`` (a southpaw: the right fist leads)."""
     from ..mocap.library import load_clip
+    from ..mocap import anatomy
     from ..mocap.punches import boxing_clip
     from ..mocap.segments import leg_stature
     from ..mocap.skeleton import CMU_UNIT, ClipMotion
@@ -261,8 +262,9 @@ def boxing_person(p: dict):
     unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(base, CMU_UNIT))
     n = p["num_frames"] or int(round(4.0 * p["fps"]))
     duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
+    hand = anatomy.WINTER["hand"] * p["person_height"]          # the segment body's hand, beyond the wrist
     clip, punches = boxing_clip(base, t, unit, duration, fist_speed=p["fist_speed"], punch_rate=p["punch_rate"],
-                                retraction_ratio=p["retraction_ratio"], seed=p["seed"])
+                                retraction_ratio=p["retraction_ratio"], seed=p["seed"], hand_length=hand)
     person = mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
     return person, punches
 
