@@ -171,12 +171,12 @@ def loader(dataset: RadarDataset, batch_size: int = 8, shuffle: bool = False, nu
            seed: int | None = None, **kwargs) -> DataLoader:
     """A ``torch.utils.data.DataLoader`` over ``dataset`` with :func:`pad_collate`; ``seed`` fixes the
     shuffle (a ``torch.Generator``); other keyword arguments go to ``DataLoader``."""
-    gen = None
     if seed is not None:
         gen = torch.Generator()
         gen.manual_seed(int(seed))
-    return DataLoader(dataset, batch_size=batch_size, shuffle=shuffle, num_workers=num_workers,
-                      collate_fn=pad_collate, generator=gen, persistent_workers=False, **kwargs)
+        kwargs.setdefault("generator", gen)
+    kwargs.setdefault("collate_fn", pad_collate)
+    return DataLoader(dataset, batch_size=batch_size, shuffle=shuffle, num_workers=num_workers, **kwargs)
 
 
 __all__ = ["FEATURES", "POINT_FIELDS", "RadarDataset", "loader", "pad_collate", "points_array", "ti_point_cloud"]
