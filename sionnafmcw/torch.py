@@ -29,8 +29,9 @@ in the sensor's axes, m; ``velocity``, m/s positive receding; ``intensity``, dB)
 radar, frame_time) -> DetectedPoints | array [N, 5]``, is called per frame (:func:`points_array`
 turns the device's :class:`~sionnafmcw.ti.points.DetectedPoints` into the five columns; intensity is
 RadHAR's: :math:`10\log_{10}(\mathrm{peakVal} + 1)` for SDK 1.x/2.x, the SNR in dB for SDK 3.x, as
-TI's ROS driver reports it). ``point_cloud=True`` uses :func:`ti_point_cloud`, the sensor's own
-on-chip chain (:mod:`sionnafmcw.ti.oob`, the radar's ``.cfg`` processing). Clouds differ in length,
+TI's ROS driver reports it). ``point_cloud=True`` runs the sensor's own on-chip chain on the
+example's frames of its run store (:func:`ti_point_clouds`: :func:`sionnafmcw.ti.oob.run_point_clouds`,
+the ``.cfg``'s processing, the frame counter and the DC calibration as the demo has them). Clouds differ in length,
 so the batches of :func:`loader` pad them (:func:`pad_collate`): ``point_cloud`` ``[B, F, N, 5]``
 zero-padded to the batch's most points, ``point_mask`` (bool, True on real points) and
 ``num_points`` ``[B, F]``.
@@ -76,17 +77,19 @@ def points_array(points) -> np.ndarray:
     return arr
 
 
-def ti_point_cloud(cube, radar, frame_time: float = 0.0):
-    """The point cloud of one frame by the sensor's on-chip chain (:mod:`sionnafmcw.ti.oob`) with the radar's
-    ``.cfg`` processing; a clear error where that chain is not installed."""
+def ti_point_clouds(store, frames, processing=None) -> list:
+    """The sensor's own point clouds (:class:`~sionnafmcw.ti.points.DetectedPoints`) of frames ``frames`` of
+    the run store ``store``: the out-of-box demo's on-chip chain (:func:`sionnafmcw.ti.oob.run_point_clouds`)
+    with ``processing`` (a ``.cfg`` path or text, or its :class:`~sionnafmcw.ti.processing.TiProcessing`;
+    None: the processing lines of the ``.cfg`` the run's radar was read from); a clear error where that
+    chain is not installed."""
     try:
         from .ti import oob
     except ImportError as exc:
         raise RuntimeError("sionnafmcw.torch: point clouds need the TI on-chip chain sionnafmcw.ti.oob, which this "
                            "installation of sionnafmcw lacks; pass point_cloud=f, a function of (cube, radar, "
                            "frame_time), or leave point_cloud off") from exc
-    clouds = oob.run_point_clouds(np.asarray(cube)[None], radar, frame_times=[frame_time])
-    return clouds[0]
+    return list(oob.run_point_clouds(store, processing=processing, frames=list(frames)))
 
 
 class RadarDataset(Dataset):
@@ -98,12 +101,15 @@ class RadarDataset(Dataset):
         as :class:`~sionnafmcw.dataset.examples.Examples` (and :func:`sionnafmcw.tf.dataset`); ``labels``
         a name or a tuple of names.
     classes : the activity names, in order: adds ``activity_index`` (and the ``person_activity`` label).
-    point_cloud : False, True (:func:`ti_point_cloud`) or a function ``f(cube, radar, frame_time)``.
+    point_cloud : False, True (:func:`ti_point_clouds`, the sensor's chain) or a function
+        ``f(cube, radar, frame_time)`` called per frame.
+    ti_processing : with ``point_cloud=True``, the demo's ``.cfg`` (path or text) whose processing lines
+        run; None: those of the ``.cfg`` each run's radar was read from.
     """
 
     def __init__(self, path, features: str = "range_doppler", labels=("radial_velocity",),
                  frames_per_example: int = 1, frame_stride: int | None = None, items=None,
-                 feature_options: dict | None = None, classes=None, point_cloud=False):
+                 feature_options: dict | None = None, classes=None, point_cloud=False, ti_processing=None):
         labels = (labels,) if isinstance(labels, str) else tuple(labels)
         if classes is not None and "person_activity" not in labels:
             labels = labels + ("person_activity",)
@@ -112,11 +118,10 @@ class RadarDataset(Dataset):
         self.labels = self.examples.labels
         self._dtypes = {n: self.examples.label_dtype(n)[0] for n in self.labels}   # as sionnafmcw.tf casts them
         self.classes = None if classes is None else tuple(str(c) for c in classes)
-        if point_cloud is True:
-            point_cloud = ti_point_cloud
-        if point_cloud is not False and point_cloud is not None and not callable(point_cloud):
+        if not (point_cloud is True or point_cloud is False or point_cloud is None or callable(point_cloud)):
             raise ValueError("point_cloud must be False, True (the TI chain) or a function f(cube, radar, frame_time)")
         self.point_cloud = point_cloud or None
+        self.ti_processing = ti_processing
 
     def __len__(self) -> int:
         return len(self.examples)
@@ -137,8 +142,12 @@ class RadarDataset(Dataset):
                 raise ValueError(f"example {k} (item {e.item}) has activity {act!r}, not one of classes="
                                  f"{list(self.classes)}")
             out["activity_index"] = torch.tensor(self.classes.index(act), dtype=torch.int64)
-        if self.point_cloud is not None:
+        if self.point_cloud is True:
+            frames = range(e.start, e.start + ex.frames_per_example)
+            clouds = [points_array(c) for c in ti_point_clouds(e.store, frames, self.ti_processing)]
+        elif self.point_cloud is not None:
             clouds = [points_array(self.point_cloud(c, ex.radar, float(t))) for c, t in zip(cubes, frame["frame_time"])]
+        if self.point_cloud is not None:
             out["num_points"] = torch.tensor([len(c) for c in clouds], dtype=torch.int64)
             out["point_cloud"] = [torch.from_numpy(c) for c in clouds]
         return out
@@ -179,4 +188,4 @@ def loader(dataset: RadarDataset, batch_size: int = 8, shuffle: bool = False, nu
     return DataLoader(dataset, batch_size=batch_size, shuffle=shuffle, num_workers=num_workers, **kwargs)
 
 
-__all__ = ["FEATURES", "POINT_FIELDS", "RadarDataset", "loader", "pad_collate", "points_array", "ti_point_cloud"]
+__all__ = ["FEATURES", "POINT_FIELDS", "RadarDataset", "loader", "pad_collate", "points_array", "ti_point_clouds"]

@@ -87,6 +87,25 @@ def test_spec_draws_every_item_within_the_ranges():
     assert range_table() in guide.read_text()                   # the guide states the ranges the code draws
 
 
+def test_a_radar_file_with_drawn_receiver_fields(tmp_path):
+    from sionnafmcw import RadarConfig
+    from sionnafmcw.dataset import SpecError
+
+    cfg = tmp_path / "board.cfg"
+    cfg.write_text(RadarConfig.preset("ti-iwr1443boost").to_ti_cfg())
+    spec = load_spec(radhar_spec(count=6, radar=str(cfg)) | {"count": 6})
+    board = RadarConfig.from_ti_cfg(cfg)
+    for it in spec.items():
+        assert 14.0 <= it.radar["noise_figure"] <= 18.0
+        assert RadarConfig.from_dict(it.radar).replace(noise_figure=board.noise_figure,
+                                                       phase_noise=board.phase_noise) == board
+    assert len({it.radar["noise_figure"] for it in spec.items()}) == 6
+    with pytest.raises(SpecError, match=r"radar: .*nothere.cfg: no such radar file"):
+        load_spec(radhar_spec(radar=str(tmp_path / "nothere.cfg")))
+    with pytest.raises(SpecError, match=r"unknown RadarConfig field\(s\) noise_figur"):
+        load_spec(radhar_spec() | {"radar": {"file": str(cfg), "noise_figur": 3}})
+
+
 @pytest.mark.slow
 def test_randomised_items_reach_the_stores_and_the_scenes(data):
     items = load_spec(_spec()).items()

@@ -76,9 +76,12 @@ def radhar_spec(name: str = "radhar-synthetic", count: int = 50, seed: int = 0, 
                 randomise: bool = True, **fixed) -> dict:
     """A data-set spec of the ``radhar`` scenario: the classes in turn, every range of
     :data:`RADHAR_RANGES` and :data:`RADAR_RANGES` drawn per item (``randomise``; else the builder's
-    defaults), ``radar`` a preset name; ``fixed`` sets scenario parameters (overriding a range)."""
+    defaults), ``radar`` a preset name or the path of a radar ``.json`` or TI ``.cfg`` (RadHAR's own:
+    ``1443es1_short_range_3d.cfg``); ``fixed`` sets scenario parameters (overriding a range)."""
+    from ..radar import RadarConfig
+
     params = {"activity": {"cycle": list(CLASSES)}, "num_frames": num_frames, "fps": fps}
-    radar_entry: dict = {"preset": radar}
+    radar_entry: dict = {"preset": radar} if radar in RadarConfig.presets() else {"file": str(radar)}
     if randomise:
         params.update({k: d for k, (d, _) in RADHAR_RANGES.items()})
         radar_entry.update({k: d for k, (d, _) in RADAR_RANGES.items()})

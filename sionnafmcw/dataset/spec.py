@@ -7,7 +7,9 @@ A spec is a YAML or JSON file, or a dict::
     count: 100                        # number of items, >= 1
     seed: 7                           # master seed (int >= 0)
     radar: walk-77ghz                 # a preset, {"preset": name, field: value, ...} (a preset with
-                                      # RadarConfig fields replaced; a field's value may be a draw,
+                                      # RadarConfig fields replaced), {"file": radar.json or TI .cfg,
+                                      # field: value, ...} (relative to the spec's folder; a field's
+                                      # value in either may be a draw,
                                       # {uniform: [lo, hi]}, {choice: [...]} or {range: [lo, hi, step]},
                                       # drawn per item), a full RadarConfig dict, or a list of these
                                       # (each item draws one, uniformly)
@@ -208,8 +210,11 @@ class DatasetSpec:
         radar_name, radar, entry, draws = self.radars[k]
         if draws:
             drawn = {f: _plain(d.sample(_stream(self.seed, index, f"radar.{f}"), index)) for f, d in draws.items()}
-            fixed = {f: v for f, v in entry.items() if f not in draws}
-            radar = RadarConfig.resolve({"name": entry["preset"], **fixed, **drawn}).to_dict()
+            if "file" in entry:      # the first draw's config holds the file's radar and the fixed changes
+                radar = RadarConfig.from_dict({**radar, **drawn}).to_dict()
+            else:
+                fixed = {f: v for f, v in entry.items() if f not in draws}
+                radar = RadarConfig.resolve({"name": entry["preset"], **fixed, **drawn}).to_dict()
         return Item(index, f"{index:06d}", params, radar, radar_name, noise_seed)
 
     def items(self) -> list[Item]:
@@ -267,7 +272,35 @@ def _radar_draw(field_name: str, raw: dict, where: str) -> Draw:
     return Draw(kind, tuple(float(a) for a in args) if kind == "uniform" else tuple(args))
 
 
-def _radar_entry(entry, where: str) -> tuple[str, dict, object, dict]:
+def _radar_file_entry(entry: dict, where: str, base: Path) -> tuple[str, dict, object, dict]:
+    """A radar entry ``{"file": path, field: value or draw, ...}``: the radar of a ``.json`` or TI ``.cfg``
+    file (relative to the spec's folder), with fields replaced or drawn per item."""
+    raw = entry["file"]
+    if not isinstance(raw, str) or not raw:
+        raise SpecError(f"{where}: 'file' needs the path of a radar .json or TI .cfg file, got {raw!r}")
+    path = Path(raw).expanduser()
+    path = (path if path.is_absolute() else base / path).resolve()
+    changes = {k: v for k, v in entry.items() if k != "file"}
+    draws = {k: _radar_draw(k, v, where) for k, v in changes.items() if _is_draw(v)}
+    fixed = {k: v for k, v in changes.items() if k not in draws}
+    try:
+        config = RadarConfig.resolve(path).to_dict()
+        unknown = sorted(set(changes) - set(config) - {"ti_processing"})
+        if unknown:
+            raise RadarConfigError(f"unknown RadarConfig field(s) {', '.join(unknown)}")
+        for k, d in draws.items():
+            for v in d.support():
+                RadarConfig.from_dict({**config, **fixed, k: v})
+        first = RadarConfig.from_dict({**config, **fixed, **{k: d.support()[0] for k, d in draws.items()}})
+    except RadarConfigError as exc:
+        raise SpecError(f"{where}: {exc}") from exc
+    label = path.name + ("(" + ",".join(f"{k}={_plain(changes[k])}" for k in sorted(changes)) + ")" if changes else "")
+    canonical = {"file": str(path), **{k: (draws[k].to_json() if k in draws else _plain(v))
+                                       for k, v in sorted(changes.items())}}
+    return label, first.to_dict(), canonical, draws
+
+
+def _radar_entry(entry, where: str, base: Path = Path(".")) -> tuple[str, dict, object, dict]:
     """``(name, RadarConfig dict, canonical entry, {field: Draw})`` of one radar entry (read by
     :meth:`RadarConfig.resolve`).
 
@@ -276,6 +309,8 @@ def _radar_entry(entry, where: str) -> tuple[str, dict, object, dict]:
     (:func:`_is_draw`) are drawn per item; every value they can give is checked here, and the
     returned dict holds their first.
     """
+    if isinstance(entry, dict) and "file" in entry:
+        return _radar_file_entry(entry, where, base)
     if isinstance(entry, str) and entry not in RadarConfig.presets():
         raise SpecError(f"{where}: unknown radar preset {entry!r}; choose one of "
                         f"{', '.join(RadarConfig.presets())}, or give a RadarConfig dict")
@@ -444,6 +479,7 @@ def load_spec(spec) -> DatasetSpec:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise SpecError(f"{where}: seed must be an integer >= 0, got {seed!r}")
 
+    base = Path(source).resolve().parent if source != "<dict>" else Path.cwd()
     raw_radar = data["radar"]
     entries = raw_radar if isinstance(raw_radar, list) else [raw_radar]
     if not entries:
@@ -451,7 +487,7 @@ def load_spec(spec) -> DatasetSpec:
     radars, canon = [], []
     for k, entry in enumerate(entries):
         field_name = f"radar[{k}]" if isinstance(raw_radar, list) else "radar"
-        label, config, entry_canon, radar_draws = _radar_entry(entry, f"{where}: {field_name}")
+        label, config, entry_canon, radar_draws = _radar_entry(entry, f"{where}: {field_name}", base)
         radars.append((label, config, entry_canon, radar_draws))
         canon.append(entry_canon)
 
@@ -471,7 +507,6 @@ def load_spec(spec) -> DatasetSpec:
     if unknown:
         raise SpecError(f"{where}: scenario {scenario!r} has no parameter {', '.join(map(repr, unknown))}; "
                         f"its parameters: {', '.join(declared)}")
-    base = Path(source).resolve().parent if source != "<dict>" else Path.cwd()
     draws = {key: _draw(scenario, key, declared[key], raw, f"{where}: parameters.{key}", base)
              for key, raw in params_raw.items()}
     if "fps" in declared:  # every radar's CPI must fit in the shortest frame period an item can draw
