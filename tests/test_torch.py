@@ -183,6 +183,13 @@ def test_features_equal_processing_and_errors_are_clear(plates):
         ds = storch.RadarDataset(plates, features="range_doppler", point_cloud=True)
         with pytest.raises(RuntimeError, match="sionnafmcw.ti.oob"):
             ds[0]
-    else:  # pragma: no cover - once the TI chain is merged
-        ds = storch.RadarDataset(plates, features="range_doppler", point_cloud=True)
-        assert ds[0]["point_cloud"][0].shape[1] == 5
+    else:  # once the TI chain is merged: the demo's chain with a .cfg's processing lines
+        with pytest.raises(ValueError, match="did not come from a TI .cfg"):     # walk-77ghz has none
+            storch.RadarDataset(plates, features="range_doppler", point_cloud=True)[0]
+        from test_ti_cfg import PROFILE_3D_18XX     # a demo .cfg with its processing lines
+
+        ds = storch.RadarDataset(plates, features="range_doppler", frames_per_example=2, point_cloud=True,
+                                 ti_processing=PROFILE_3D_18XX)
+        e = ds[0]
+        assert len(e["point_cloud"]) == 2 and all(c.shape[1] == 5 for c in e["point_cloud"])
+        assert e["num_points"].tolist() == [len(c) for c in e["point_cloud"]]
