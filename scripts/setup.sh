@@ -3,7 +3,8 @@
 #   - libLLVM >= 16 for Dr.Jit's LLVM backend (libLLVM-15 crashes it): installed with apt-get
 #     when we are root on Debian/Ubuntu, otherwise we stop and say what to install.
 #   - libjs-mathjax, fonts-mathjax, chromium for the documentation and its test (apt-get as root).
-#   - .venv with the package and its test, tf and docs extras (tensorflow-cpu: ~270 MB download, ~1.4 GB installed).
+#   - .venv with the package and its test, tf, torch and docs extras (tensorflow-cpu: ~270 MB download, ~1.4 GB
+#     installed; PyTorch's CPU build: ~190 MB download, ~0.87 GB installed with its dependencies, see below).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 VENV=${VENV:-.venv}
@@ -51,6 +52,18 @@ if [ ! -x "$VENV/bin/python" ]; then
   "$PYTHON" -m venv "$VENV"
 fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
-"$VENV/bin/python" -m pip install -q -e ".[test,tf,docs]"
+# PyTorch (sionnafmcw.torch) as its CPU build: PyPI's Linux wheel (~555 MB) is the CUDA build and pulls
+# ~2.2 GB of nvidia-* wheels and triton (~0.25 GB), of no use without a GPU; without them it does not
+# import (libcudnn.so.9 missing). The CPU build comes from PyTorch's own index (TORCH_INDEX; a local
+# folder of wheels in pip's find-links serves too). Its pure-Python dependencies come first from the
+# usual indexes, then torch alone from the CPU index, so no other index can hand pip the CUDA build.
+TORCH_INDEX=${TORCH_INDEX:-https://download.pytorch.org/whl/cpu}
+if ! "$VENV/bin/python" -c "import torch" >/dev/null 2>&1; then
+  "$VENV/bin/python" -m pip install -q filelock "typing-extensions>=4.10" "sympy>=1.13.3" "networkx>=2.5.1" jinja2 \
+    "fsspec>=0.8.5" "setuptools>=77"
+  PIP_EXTRA_INDEX_URL="$TORCH_INDEX" "$VENV/bin/python" -m pip install -q --no-deps --index-url "$TORCH_INDEX" \
+    "torch>=2.4"
+fi
+"$VENV/bin/python" -m pip install -q -e ".[test,tf,torch,docs]"
 touch "$VENV/.installed"
 echo "setup: $VENV ready"

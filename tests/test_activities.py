@@ -33,7 +33,7 @@ from sionnafmcw.mocap.person import MocapPerson
 from sionnafmcw.mocap.scene import radar_in_front, radar_orientation, write_people
 
 ACTIVITIES = ("run", "sit_down", "stand_up", "wave", "jump", "fall", "pick_up", "mocap_clip", "stand_still",
-              "vital_signs")
+              "vital_signs", "jumping_jacks", "squat", "boxing", "jump_in_place")
 FLOAT32_POS = 1e-5
 
 

@@ -54,7 +54,8 @@ KEY_SNAP_FRAMES = 1e-4
 LEVER = 2.0
 SPIN_TOLERANCE = 1e-4
 #: Clip time (s) where each clip moves most (fast test): a window around it.
-BUSY = {"08_10": 1.1, "09_01": 0.5, "111_10": 1.2, "111_37": 2.3, "75_10": 1.4, "90_18": 0.9, "115_06": 0.6}
+BUSY = {"08_10": 1.1, "09_01": 0.5, "111_10": 1.2, "111_37": 2.3, "75_10": 1.4, "90_18": 0.9, "115_06": 0.6,
+        "13_29_jacks": 0.3, "13_29_squats": 1.0}
 
 
 def both_routes(tmp_path, person, bvh_path, tag):

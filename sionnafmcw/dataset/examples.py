@@ -19,7 +19,8 @@ Labels (:data:`FRAME_LABELS` per frame, the others one per example): ``radial_ve
 :mod:`.index`), ``frame_time`` (float64 ``[F]``, s), for data sets of people ``person_count``
 (int32 ``[F]``) and ``joint_position`` (float32 ``[F, person, joint, 3]``, m, the person axis padded
 with NaN to the index's), ``item`` (id), ``scenario``, ``radar``
-(strings), ``start_frame`` (int64), and any scenario parameter by its name (``speed``, or
+(strings), ``start_frame`` (int64), ``person_activity`` (string: the first person's activity at the example's
+first frame, from the run store, for data sets of people), and any scenario parameter by its name (``speed``, or
 ``param_speed``): its value from the index (int64, float32, bool or string; tuples as JSON text).
 """
 
@@ -36,13 +37,17 @@ from .index import DatasetError, item_dir, open_index
 FEATURES = ("iq", "range_doppler", "micro_doppler")
 FRAME_LABELS = ("radial_velocity", "range", "frame_time", "person_count", "joint_position")
 PEOPLE_LABELS = ("person_count", "joint_position")
-ITEM_LABELS = ("item", "scenario", "radar", "start_frame")
+ITEM_LABELS = ("item", "scenario", "radar", "start_frame", "person_activity")
 _FEATURE_OPTIONS = {
     "iq": (),
     "range_doppler": ("clutter_removal", "db", "window_range", "window_doppler", "n_range", "n_doppler"),
     "micro_doppler": ("range_gate", "window_chirps", "hop", "n_fft", "window", "clutter_removal", "db"),
 }
 DB_FLOOR = 1e-30  # W: power floor before 10 log10
+#: RadarConfig fields that may differ between the items of one set of examples (a receiver randomised per
+#: item): they change the signal, not the waveform, the array or the processing's axes.
+RECEIVER_FIELDS = ("name", "tx_power", "noise_figure", "phase_noise", "if_filter", "adc_bits", "adc_full_scale",
+                   "rx_gain", "iq_imbalance")
 
 
 @dataclass(frozen=True)
@@ -82,7 +87,7 @@ class Examples:
                     not (name.startswith("param_") and name[len("param_"):] in params):
                 raise ValueError(f"label {name!r} is unknown; choose from {', '.join(FRAME_LABELS + ITEM_LABELS)} "
                                  f"or a scenario parameter ({', '.join(params)})")
-            if name in PEOPLE_LABELS and "person" not in self.index.dims:
+            if (name in PEOPLE_LABELS or name == "person_activity") and "person" not in self.index.dims:
                 raise ValueError(f"label {name!r} needs a data set of people (its index has no person axis)")
         F = int(frames_per_example)
         if F < 1:
@@ -113,7 +118,7 @@ class Examples:
                 continue
             if radar is None:
                 radar = run.radar
-            elif run.radar != radar:
+            elif run.radar.replace(**{f: getattr(radar, f) for f in RECEIVER_FIELDS}) != radar:
                 raise DatasetError(f"{self.path}: item {item} has another radar than the items before it, so the "
                                    "features differ in shape; select items of one radar with items= (the index's "
                                    "'radar' variable)")
@@ -167,11 +172,14 @@ class Examples:
         return out
 
     def item_label(self, name: str, example: Example):
-        """A per-example label (``item``, ``scenario``, ``radar``, ``start_frame`` or a scenario parameter)."""
+        """A per-example label (``item``, ``scenario``, ``radar``, ``start_frame``, ``person_activity`` or a
+        scenario parameter)."""
         if name == "item":
             return example.item
         if name == "start_frame":
             return np.int64(example.start)
+        if name == "person_activity":
+            return str(self.index["activity"].values[example.row, example.start, 0])
         var = name if name in ("scenario", "radar") or name.startswith("param_") else f"param_{name}"
         value = self.index[var].values[example.row]
         return value.item() if hasattr(value, "item") else str(value)

@@ -7,8 +7,12 @@ A spec is a YAML or JSON file, or a dict::
     count: 100                        # number of items, >= 1
     seed: 7                           # master seed (int >= 0)
     radar: walk-77ghz                 # a preset, {"preset": name, field: value, ...} (a preset with
-                                      # RadarConfig fields replaced), a full RadarConfig dict, or a
-                                      # list of these (each item draws one, uniformly)
+                                      # RadarConfig fields replaced), {"file": radar.json or TI .cfg,
+                                      # field: value, ...} (relative to the spec's folder; a field's
+                                      # value in either may be a draw,
+                                      # {uniform: [lo, hi]}, {choice: [...]} or {range: [lo, hi, step]},
+                                      # drawn per item), a full RadarConfig dict, or a list of these
+                                      # (each item draws one, uniformly)
     engine: path                      # an engine of sionnafmcw.engines.names()
     engine_options: {samples_per_src: 20000}
     parameters:                       # scenario parameters; the others keep the builder's defaults
@@ -43,7 +47,10 @@ the draws of the others (and the noise) unchanged. Every seed parameter of the s
 and any named ``*_seed``, e.g. ``furniture_seed``) the spec does not set is drawn per item
 (``default_rng([seed, i, crc32(name)])``), so random scene details (a gait, the placement of people
 and furniture) differ between items. A list of radars is drawn the same way
-under the key ``"radar"``.
+under the key ``"radar"``; a drawn field of a radar entry (``{"preset": "walk-77ghz", "noise_figure":
+{"uniform": [12, 18]}}``: domain randomisation of the receiver) from
+``default_rng([seed, i, crc32("radar." + field)])``, every value it can give checked as a
+:class:`RadarConfig` when the spec is loaded.
 """
 
 from __future__ import annotations
@@ -161,7 +168,7 @@ class DatasetSpec:
     scenario: str
     count: int
     seed: int
-    radars: list                      # [(name, RadarConfig dict)], one per choice
+    radars: list                      # [(name, RadarConfig dict, canonical entry, {field: Draw})], one per choice
     radar_entries: list               # the spec's own entries (canonical), for to_dict
     engine: str = "path"
     engine_options: dict = field(default_factory=dict)
@@ -200,7 +207,14 @@ class DatasetSpec:
         for name in sorted(set(self.drawn_seeds) | ({"seed"} if self.scenario_seed else set())):
             params[name] = int(_stream(self.seed, index, name).integers(SEED_SPACE))
         k = int(_stream(self.seed, index, "radar").integers(len(self.radars))) if len(self.radars) > 1 else 0
-        radar_name, radar = self.radars[k]
+        radar_name, radar, entry, draws = self.radars[k]
+        if draws:
+            drawn = {f: _plain(d.sample(_stream(self.seed, index, f"radar.{f}"), index)) for f, d in draws.items()}
+            if "file" in entry:      # the first draw's config holds the file's radar and the fixed changes
+                radar = RadarConfig.from_dict({**radar, **drawn}).to_dict()
+            else:
+                fixed = {f: v for f, v in entry.items() if f not in draws}
+                radar = RadarConfig.resolve({"name": entry["preset"], **fixed, **drawn}).to_dict()
         return Item(index, f"{index:06d}", params, radar, radar_name, noise_seed)
 
     def items(self) -> list[Item]:
@@ -234,12 +248,69 @@ def _read(spec) -> tuple[dict, str]:
     raise SpecError(f"data-set spec must be a file path, a dict or a DatasetSpec, got {type(spec).__name__}")
 
 
-def _radar_entry(entry, where: str) -> tuple[str, dict, object]:
-    """``(name, RadarConfig dict, canonical entry)`` of one radar entry (read by :meth:`RadarConfig.resolve`).
+_RADAR_DRAWS = ("uniform", "choice", "range")
+
+
+def _is_draw(value) -> bool:
+    return isinstance(value, dict) and len(value) == 1 and next(iter(value)) in _RADAR_DRAWS
+
+
+def _radar_draw(field_name: str, raw: dict, where: str) -> Draw:
+    """A :class:`Draw` of one RadarConfig field (``uniform``, ``choice`` or ``range``)."""
+    kind, args = next(iter(raw.items()))
+    at = f"{where}: {field_name}"
+    if kind == "choice":
+        if not isinstance(args, (list, tuple)) or not args:
+            raise SpecError(f"{at}: 'choice' needs a non-empty list of values, got {args!r}")
+        return Draw("choice", tuple(args))
+    n = 2 if kind == "uniform" else 3
+    if not isinstance(args, (list, tuple)) or len(args) != n or not all(_is_number(a) for a in args):
+        raise SpecError(f"{at}: {kind!r} needs {'[lo, hi]' if n == 2 else '[lo, hi, step]'} (finite numbers), "
+                        f"got {args!r}")
+    if not args[0] < args[1] or (n == 3 and not args[2] > 0):
+        raise SpecError(f"{at}: {kind!r} needs lo < hi{' and step > 0' if n == 3 else ''}, got {list(args)}")
+    return Draw(kind, tuple(float(a) for a in args) if kind == "uniform" else tuple(args))
+
+
+def _radar_file_entry(entry: dict, where: str, base: Path) -> tuple[str, dict, object, dict]:
+    """A radar entry ``{"file": path, field: value or draw, ...}``: the radar of a ``.json`` or TI ``.cfg``
+    file (relative to the spec's folder), with fields replaced or drawn per item."""
+    raw = entry["file"]
+    if not isinstance(raw, str) or not raw:
+        raise SpecError(f"{where}: 'file' needs the path of a radar .json or TI .cfg file, got {raw!r}")
+    path = Path(raw).expanduser()
+    path = (path if path.is_absolute() else base / path).resolve()
+    changes = {k: v for k, v in entry.items() if k != "file"}
+    draws = {k: _radar_draw(k, v, where) for k, v in changes.items() if _is_draw(v)}
+    fixed = {k: v for k, v in changes.items() if k not in draws}
+    try:
+        config = RadarConfig.resolve(path).to_dict()
+        unknown = sorted(set(changes) - set(config) - {"ti_processing"})
+        if unknown:
+            raise RadarConfigError(f"unknown RadarConfig field(s) {', '.join(unknown)}")
+        for k, d in draws.items():
+            for v in d.support():
+                RadarConfig.from_dict({**config, **fixed, k: v})
+        first = RadarConfig.from_dict({**config, **fixed, **{k: d.support()[0] for k, d in draws.items()}})
+    except RadarConfigError as exc:
+        raise SpecError(f"{where}: {exc}") from exc
+    label = path.name + ("(" + ",".join(f"{k}={_plain(changes[k])}" for k in sorted(changes)) + ")" if changes else "")
+    canonical = {"file": str(path), **{k: (draws[k].to_json() if k in draws else _plain(v))
+                                       for k, v in sorted(changes.items())}}
+    return label, first.to_dict(), canonical, draws
+
+
+def _radar_entry(entry, where: str, base: Path = Path(".")) -> tuple[str, dict, object, dict]:
+    """``(name, RadarConfig dict, canonical entry, {field: Draw})`` of one radar entry (read by
+    :meth:`RadarConfig.resolve`).
 
     A preset with changes keeps the preset's ``name`` unless ``name`` is one of the changes; its
-    label lists the changes, e.g. ``walk-77ghz(num_chirps=64)``.
+    label lists the changes, e.g. ``walk-77ghz(num_chirps=64)``. Changes that are draws
+    (:func:`_is_draw`) are drawn per item; every value they can give is checked here, and the
+    returned dict holds their first.
     """
+    if isinstance(entry, dict) and "file" in entry:
+        return _radar_file_entry(entry, where, base)
     if isinstance(entry, str) and entry not in RadarConfig.presets():
         raise SpecError(f"{where}: unknown radar preset {entry!r}; choose one of "
                         f"{', '.join(RadarConfig.presets())}, or give a RadarConfig dict")
@@ -249,20 +320,29 @@ def _radar_entry(entry, where: str) -> tuple[str, dict, object]:
     if isinstance(entry, dict) and "preset" in entry:
         name = entry["preset"]
         changes = {k: v for k, v in entry.items() if k != "preset"}
+        draws = {k: _radar_draw(k, v, where) for k, v in changes.items() if _is_draw(v)}
+        fixed = {k: v for k, v in entry.items() if k not in draws}
         try:
-            config = RadarConfig.resolve({"name": name, **entry} if isinstance(name, str) else entry)
+            for k, d in draws.items():      # every value a draw can give, as a radar
+                for v in d.support():
+                    RadarConfig.resolve({"name": name, **fixed, k: v} if isinstance(name, str) else {**fixed, k: v})
+            first = {k: d.support()[0] for k, d in draws.items()}
+            config = RadarConfig.resolve({"name": name, **fixed, **first} if isinstance(name, str) else
+                                         {**fixed, **first})
         except RadarConfigError as exc:
             raise SpecError(f"{where}: {exc}") from exc
         label = name
         if changes:
-            label += "(" + ",".join(f"{k}={changes[k]}" for k in sorted(changes)) + ")"
-        return label, config.to_dict(), {"preset": name, **{k: _plain(v) for k, v in sorted(changes.items())}}
+            label += "(" + ",".join(f"{k}={_plain(changes[k])}" for k in sorted(changes)) + ")"
+        canonical = {"preset": name, **{k: (draws[k].to_json() if k in draws else _plain(v))
+                                        for k, v in sorted(changes.items())}}
+        return label, config.to_dict(), canonical, draws
     try:
         config = RadarConfig.resolve(entry)
     except RadarConfigError as exc:
         raise SpecError(f"{where}: {exc}") from exc
     canonical = entry if isinstance(entry, str) else config.to_dict()
-    return config.name, config.to_dict(), canonical
+    return config.name, config.to_dict(), canonical, {}
 
 
 def _files(pattern, base: Path, where: str) -> list[str]:
@@ -399,6 +479,7 @@ def load_spec(spec) -> DatasetSpec:
     if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
         raise SpecError(f"{where}: seed must be an integer >= 0, got {seed!r}")
 
+    base = Path(source).resolve().parent if source != "<dict>" else Path.cwd()
     raw_radar = data["radar"]
     entries = raw_radar if isinstance(raw_radar, list) else [raw_radar]
     if not entries:
@@ -406,8 +487,8 @@ def load_spec(spec) -> DatasetSpec:
     radars, canon = [], []
     for k, entry in enumerate(entries):
         field_name = f"radar[{k}]" if isinstance(raw_radar, list) else "radar"
-        label, config, entry_canon = _radar_entry(entry, f"{where}: {field_name}")
-        radars.append((label, config))
+        label, config, entry_canon, radar_draws = _radar_entry(entry, f"{where}: {field_name}", base)
+        radars.append((label, config, entry_canon, radar_draws))
         canon.append(entry_canon)
 
     engine = data.get("engine", "path")
@@ -426,12 +507,11 @@ def load_spec(spec) -> DatasetSpec:
     if unknown:
         raise SpecError(f"{where}: scenario {scenario!r} has no parameter {', '.join(map(repr, unknown))}; "
                         f"its parameters: {', '.join(declared)}")
-    base = Path(source).resolve().parent if source != "<dict>" else Path.cwd()
     draws = {key: _draw(scenario, key, declared[key], raw, f"{where}: parameters.{key}", base)
              for key, raw in params_raw.items()}
     if "fps" in declared:  # every radar's CPI must fit in the shortest frame period an item can draw
         fps = max(draws["fps"].support()) if "fps" in draws else declared["fps"].default
-        for label, config in radars:
+        for label, config, *_ in radars:
             try:
                 RadarConfig.from_dict(config).validate(frame_period=1.0 / fps)
             except RadarConfigError as exc:

@@ -1,7 +1,8 @@
 r"""The motion-capture clips shipped with sionnafmcw and the postures taken from them.
 
 Seven clips of the CMU Graphics Lab Motion Capture Database (BVH conversion by B. Hahne), one per
-activity, in ``sionnafmcw/mocap/clips/`` with their provenance, checks and terms of use
+activity, and two excerpts of an eighth (``13_29``: its jumping jacks and its squats, the lines of
+the file that hold them), in ``sionnafmcw/mocap/clips/`` with their provenance, checks and terms of use
 (``clips/README.md``). **Acknowledgement** (:data:`ACKNOWLEDGEMENT`, as the database asks of
 published results): *The data used in this project was obtained from mocap.cs.cmu.edu. The database
 was created with funding from NSF EIA-0196217.*
@@ -24,6 +25,12 @@ clip        activity      what happens (clip seconds; the CMU unit, the subjects
                           up to 4.0 m/s at 1.0 s), lies on the floor from 1.1 s (subject 90)
 ``115_06``  pick up       bends the knees (pelvis down at up to 1.6 m/s at 0.65 s, to 0.55 m at 0.8 s)
                           to pick up a box and stands up again (subject 115)
+``13_29_``  jumping       frames 0-480 of ``13_29`` (subject 13): seven jumping jacks, one every 0.55 s
+``jacks``   jacks         (root-height peaks at clip frames 41, 101, 170, 237, 302, 372, 438), under way
+                          from frame 1
+``13_29_``  squat         frame 0 (the T-pose) and frames 3800-4520 of ``13_29``: stands, two deep squats
+``squats``                (``13_29`` frames 3822-4108 and 4193-4474; excerpt 0.19-2.58 s and 3.28-5.63 s,
+                          pelvis from 1.03 m down to 0.45 and 0.41 m in the CMU unit), stands
 ==========  ============  ===========================================================================
 
 :data:`POSTURES`: still postures for :class:`~.person.PosedPerson` -- ``standing`` (``90_18`` at
@@ -67,6 +74,9 @@ CLIPS = {c.name: c for c in (
     ClipInfo("75_10", "jump", "75_10 2 jump", "1363c90b8294d965"),
     ClipInfo("90_18", "fall", "90_18 RugPullFall", "35a8e9b8b02bf4b6"),
     ClipInfo("115_06", "pick_up", "115_06 Picking box up, bending knees", "cf6b0a7bda68eb7f"),
+    ClipInfo("13_29_jacks", "jumping_jacks", "13_29 jumping jacks, side twists, bend over, squats",
+             "e725492fb10456c4"),
+    ClipInfo("13_29_squats", "squat", "13_29 jumping jacks, side twists, bend over, squats", "150b271ca019521e"),
 )}
 #: Still postures: ``{name: (clip, clip time s)}`` (module docstring).
 POSTURES = {"standing": ("90_18", 0.2), "sitting": ("111_10", 0.3), "lying": ("90_18", 3.2)}

@@ -25,5 +25,6 @@ from . import simple  # noqa: F401,E402  (registers the simple scenarios)
 from . import walking  # noqa: F401,E402  (registers the walking scenarios)
 from . import activities  # noqa: F401,E402  (registers the activity library)
 from . import people  # noqa: F401,E402  (registers the several-people scenario)
+from . import radhar  # noqa: F401,E402  (registers the RadHAR activities in the radar's frame)
 
 __all__ = ["Parameter", "build", "describe", "names", "parameters", "parse_params", "parse_value"]

@@ -21,6 +21,13 @@ builder             motion source
 ``jump``            CMU ``75_10`` (jump, subject 75): stands, one long jump forward
 ``fall``            CMU ``90_18`` (rug-pull fall, subject 90): stands, falls backwards, lies on the floor
 ``pick_up``         CMU ``115_06`` (picking a box up, bending the knees, subject 115)
+``jumping_jacks``   CMU ``13_29`` frames 1-480 (subject 13): seven jumping jacks in 4 s
+``squat``           CMU ``13_29`` frames 3800-4520 (subject 13): stands, two deep squats, stands
+``jump_in_place``   keyframed: countermovement jumps in place, ballistic flight, the legs by inverse
+                    kinematics, on subject 13's standing posture (:mod:`sionnafmcw.mocap.jumps`)
+``boxing``          keyframed: straight punches of both fists in turn, minimum-jerk fist paths at a measured
+                    peak fist speed, the arms by inverse kinematics, on subject 13's standing posture
+                    (:mod:`sionnafmcw.mocap.punches`; no boxing clip is shipped)
 ``mocap_clip``      any shipped CMU clip (``clip``)
 ``stand_still``     posture: CMU ``90_18`` at 0.2 s (standing); motion: parametric postural sway and the
                     chest wall's breathing and heartbeat (:mod:`sionnafmcw.scenes.vitals`)
@@ -31,7 +38,8 @@ builder             motion source
 
 The captured clips are scaled uniformly so that the skeleton's stature (from its legs,
 :func:`~sionnafmcw.mocap.segments.leg_stature`) is ``person_height``: lengths and speeds scale with it,
-the timing does not. The person starts at ``(x, y)`` facing ``heading``; the radar stands
+the timing does not. ``mirror`` plays the clip left for right (:mod:`sionnafmcw.mocap.mirror`: the
+reflection of the skeleton, so the body stays a body). The person starts at ``(x, y)`` facing ``heading``; the radar stands
 ``radar_distance`` metres from that point in the direction ``heading + radar_azimuth``
 (``radar_azimuth`` = 0: in front, pi: behind), ``radar_height`` up, its boresight through the point
 ``radar_target_height`` above the start position (level by default; lower for a radar looking down
@@ -62,7 +70,11 @@ from .vitals import (BREATHING_AMPLITUDE, BREATHING_RATE, HEART_AMPLITUDE, HEART
 #: Clip windows (clip seconds) of the activities: ``{activity: (clip, start, end)}``; None: the clip's ends.
 WINDOWS = {"run": ("09_01", None, None), "stand_up": ("111_10", None, 2.0), "sit_down": ("111_10", None, 2.0),
            "wave": ("111_37", None, None), "jump": ("75_10", None, None), "fall": ("90_18", None, None),
-           "pick_up": ("115_06", None, None)}
+           "pick_up": ("115_06", None, None), "jumping_jacks": ("13_29_jacks", None, None),
+           "squat": ("13_29_squats", None, None)}
+#: The standing posture the keyframed activities (``boxing``, ``jump_in_place``) animate: ``(clip, clip time s)``, subject 13
+#: as the jumping jacks and the squats.
+BOXING_POSTURE = ("13_29_squats", 0.05)
 
 _PERSON = {
     "person_height": Parameter(1.75, float, "m", "stature; the motion is scaled uniformly to it (lengths and speeds)",
@@ -96,6 +108,8 @@ _CLIP_TIME = {
     "playback_rate": Parameter(1.0, float, "", "clip seconds per second (speeds scale with it)", low=0.5, high=2.0),
     "num_frames": Parameter(0, int, "", "number of frames (0: all the activity's window holds)", low=0, high=100_000),
     "fps": Parameter(30.0, float, "1/s", "frame rate", low=1.0, high=1000.0),
+    "mirror": Parameter(False, bool, "", "mirror the motion left for right (sionnafmcw.mocap.mirror): the other "
+                        "side of the body leads"),
 }
 
 
@@ -129,10 +143,12 @@ def _room_box(people, radar_position, p):
     return box, opts, pieces
 
 
-def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False):
+def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False, unit: float | None = None,
+                 keyframed: bool = False):
     """The :class:`~sionnafmcw.mocap.person.MocapPerson` of an activity's parameters ``p`` on the shipped
     clip ``clip_name`` (or a parsed :class:`~sionnafmcw.mocap.bvh.BvhClip`) between clip times ``start``
-    and ``end`` (None: the clip's usable ends)."""
+    and ``end`` (None: the clip's usable ends); ``unit`` (m per file unit) defaults to the one that makes
+    the skeleton ``person_height`` tall; ``keyframed``: the clip's frame 0 is motion, not a T-pose."""
     from ..mocap.bvh import BvhClip
     from ..mocap.segments import leg_stature
     from ..mocap.library import load_clip
@@ -143,8 +159,13 @@ def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False
         clip, clip_name = clip_name, str(clip_name.path or "BVH clip")
     else:
         clip = load_clip(clip_name)
-    unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(clip, CMU_UNIT))
-    lo = clip.frame_time if start is None else float(start)
+    if p.get("mirror", False):
+        from ..mocap.mirror import mirrored
+
+        clip = mirrored(clip)
+    if unit is None:
+        unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(clip, CMU_UNIT))
+    lo = (0.0 if keyframed else clip.frame_time) if start is None else float(start)
     hi = clip.duration if end is None else float(end)
     rate = p["playback_rate"]
     t0 = (hi - p["time_offset"]) if reverse else (lo + p["time_offset"])
@@ -160,7 +181,7 @@ def mocap_person(clip_name, p: dict, start=None, end=None, reverse: bool = False
                          f"{p['time_offset']} s")
     return MocapPerson(clip, unit=unit, fps=p["fps"], num_frames=n, start=t0, playback_rate=rate,
                        position=(p["x"], p["y"]), heading=p["heading"], height=p["person_height"], build=p["build"],
-                       mesh_edge=p["body_mesh_edge"], reverse=reverse)
+                       mesh_edge=p["body_mesh_edge"], reverse=reverse, skip_first_frame=not keyframed)
 
 
 def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=None):
@@ -175,6 +196,7 @@ def _write_mocap(out, activity, clip_name, p, reverse=False, start=None, end=Non
     extra = {"activity": {"name": activity, "motion_source": f"CMU Graphics Lab Motion Capture Database, clip "
                           f"{clip_name}" + (" played backwards" if reverse else ""),
                           "clip": clip_name, "clip_start_s": person.start, "reverse": reverse,
+                          "mirror": bool(p.get("mirror", False)),
                           "playback_rate": person.playback_rate, "stature_m": person.body.height,
                           "acknowledgement": ACKNOWLEDGEMENT}}
     label = CLIPS[clip_name].activity if activity == "mocap_clip" else activity
@@ -208,12 +230,123 @@ wave = _register_mocap("wave", "A person standing and waving (CMU mocap 111_37).
 jump = _register_mocap("jump", "A person jumping forward towards the radar (CMU mocap 75_10).", 6.0)
 fall = _register_mocap("fall", "A person falling backwards to the floor, a rug pulled away (CMU mocap 90_18).", 3.0)
 pick_up = _register_mocap("pick_up", "A person bending the knees to pick a box up (CMU mocap 115_06).", 3.0)
+jumping_jacks = _register_mocap("jumping_jacks", "A person doing jumping jacks, seven in 4 s (CMU mocap 13_29, "
+                                "frames 1-480).", 2.5)
+squat = _register_mocap("squat", "A person doing two deep squats (CMU mocap 13_29, frames 3822-4108 and "
+                        "4193-4474).", 2.5)
+
+_BOXING = {
+    "fist_speed": Parameter(6.3, float, "m/s", "peak fist speed of a straight punch (measured 6.3 +- 0.4 m/s for a "
+                            "junior boxer's jab, 9.3 +- 2.1 m/s for maximal punches: sionnafmcw.mocap.punches)",
+                            low=3.0, high=11.0),
+    "punch_rate": Parameter(2.0, float, "1/s", "punches per second, the two fists in turn", low=0.5, high=4.0),
+    "retraction_ratio": Parameter(1.5, float, "", "time to pull a fist back, in units of its extension time",
+                                  low=1.0, high=3.0),
+    "seed": Parameter(0, int, "", "seed of the punches' timing (each start jittered by +-20 % of the period)",
+                      low=0, high=2**31 - 1),
+}
+
+
+def boxing_person(p: dict):
+    """``(MocapPerson, Punches)`` of shadow boxing (:func:`sionnafmcw.mocap.punches.boxing_clip`) with the
+    parameters ``p`` of the ``boxing`` builder: the posture :data:`BOXING_POSTURE`, ``num_frames`` at ``fps``
+    (0: 4 s), the fists at ``fist_speed``, mirrored with ``mirror`` (a southpaw: the right fist leads)."""
+    from ..mocap.library import load_clip
+    from ..mocap import anatomy
+    from ..mocap.punches import boxing_clip
+    from ..mocap.segments import leg_stature
+    from ..mocap.skeleton import CMU_UNIT, ClipMotion
+
+    clip_name, t = BOXING_POSTURE
+    base = load_clip(clip_name)
+    unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(base, CMU_UNIT))
+    n = p["num_frames"] or int(round(4.0 * p["fps"]))
+    duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
+    hand = anatomy.WINTER["hand"] * p["person_height"]          # the segment body's hand, beyond the wrist
+    clip, punches = boxing_clip(base, t, unit, duration, fist_speed=p["fist_speed"], punch_rate=p["punch_rate"],
+                                retraction_ratio=p["retraction_ratio"], seed=p["seed"], hand_length=hand)
+    person = mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
+    return person, punches
+
+
+_JUMP = {
+    "jump_height": Parameter(0.15, float, "m", "apex rise of the pelvis in flight (0.05 m a hop, 0.45 m a maximal "
+                             "countermovement jump)", low=0.05, high=0.45),
+    "crouch": Parameter(0.15, float, "m", "depth of the countermovement and of the landing", low=0.05, high=0.35),
+    "jump_rate": Parameter(0.75, float, "1/s", "jumps per second", low=0.2, high=1.5),
+}
+
+
+def jump_in_place_person(p: dict):
+    """The :class:`~sionnafmcw.mocap.person.MocapPerson` of jumps in place
+    (:func:`sionnafmcw.mocap.jumps.jump_clip`) with the parameters ``p`` of ``jump_in_place``: the posture
+    :data:`BOXING_POSTURE`, ``num_frames`` at ``fps`` (0: 4 s)."""
+    from ..mocap.jumps import jump_clip
+    from ..mocap.library import load_clip
+    from ..mocap.segments import leg_stature
+    from ..mocap.skeleton import CMU_UNIT, ClipMotion
+
+    clip_name, t = BOXING_POSTURE
+    base = load_clip(clip_name)
+    unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(base, CMU_UNIT))
+    n = p["num_frames"] or int(round(4.0 * p["fps"]))
+    duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
+    clip = jump_clip(base, t, unit, duration, jump_height=p["jump_height"], crouch=p["crouch"],
+                     jump_rate=p["jump_rate"])
+    return mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
+
+
+@register("jump_in_place", "A person jumping in place: countermovement jumps with ballistic flight, keyframed on "
+          "the CMU skeleton of subject 13 (no capture of a jump in place is shipped).", {**_mocap_params(2.5), **_JUMP})
+def jump_in_place(out, **p):
+    """Countermovement jumps in place on a standing posture (:mod:`sionnafmcw.mocap.jumps`)."""
+    from ..mocap.library import ACKNOWLEDGEMENT
+    from ..mocap.scene import radar_in_front, radar_orientation, write_people
+
+    person = jump_in_place_person(p)
+    radar, target = radar_in_front((p["x"], p["y"]), p["heading"] + p["radar_azimuth"], p["radar_distance"],
+                                   p["radar_height"])
+    target[2] = p["radar_target_height"]
+    box, opts, pieces = _room_box([(person, "")], radar, p)
+    extra = {"activity": {"name": "jump_in_place", "motion_source": "keyframed countermovement jumps (ballistic "
+                          f"flight, leg inverse kinematics) on the standing posture of CMU clip {BOXING_POSTURE[0]} "
+                          f"at {BOXING_POSTURE[1]} s", "jump_height_m": p["jump_height"], "crouch_m": p["crouch"],
+                          "jump_rate_hz": p["jump_rate"], "stature_m": person.body.height,
+                          "acknowledgement": ACKNOWLEDGEMENT}}
+    write_people(out, [(person, "")], radar, radar_orientation(radar, target), p["skin_scattering"], box, opts, extra,
+                 activities=["jump"], furniture=pieces,
+                 person_info=[{"height_m": person.body.height, "build": p["build"], "clip": BOXING_POSTURE[0]}])
+
+
+@register("boxing", "A person shadow boxing: straight punches, fists in turn, keyframed on the CMU skeleton of "
+          "subject 13 (no boxing clip is shipped).", {**_mocap_params(2.5), **_BOXING})
+def boxing(out, **p):
+    """Straight punches from a guard on a standing posture (:mod:`sionnafmcw.mocap.punches`)."""
+    from ..mocap.library import ACKNOWLEDGEMENT
+    from ..mocap.scene import radar_in_front, radar_orientation, write_people
+
+    person, punches = boxing_person(p)
+    radar, target = radar_in_front((p["x"], p["y"]), p["heading"] + p["radar_azimuth"], p["radar_distance"],
+                                   p["radar_height"])
+    target[2] = p["radar_target_height"]
+    box, opts, pieces = _room_box([(person, "")], radar, p)
+    extra = {"activity": {"name": "boxing", "motion_source": "keyframed straight punches (minimum-jerk fist paths, "
+                          "inverse kinematics of the arms) on the standing posture of CMU clip "
+                          f"{BOXING_POSTURE[0]} at {BOXING_POSTURE[1]} s", "fist_speed_m_s": p["fist_speed"],
+                          "punches": punches.to_dict(), "playback_rate": p["playback_rate"],
+                          "mirror": bool(p["mirror"]), "stature_m": person.body.height,
+                          "acknowledgement": ACKNOWLEDGEMENT}}
+    write_people(out, [(person, "")], radar, radar_orientation(radar, target), p["skin_scattering"], box, opts, extra,
+                 activities=["boxing"], furniture=pieces,
+                 person_info=[{"height_m": person.body.height, "build": p["build"], "clip": BOXING_POSTURE[0]}])
 
 
 @register("mocap_clip", "Any shipped motion-capture clip (CMU database) on the segment body.", {
     "clip": Parameter("08_10", str, "", "shipped clip (sionnafmcw.mocap.library.CLIPS: 08_10 walk, 09_01 run, "
-                      "111_10 stand up, 111_37 wave, 75_10 jump, 90_18 fall, 115_06 pick up)",
-                      choices=("08_10", "09_01", "111_10", "111_37", "75_10", "90_18", "115_06")),
+                      "111_10 stand up, 111_37 wave, 75_10 jump, 90_18 fall, 115_06 pick up, 13_29_jacks "
+                      "jumping jacks, 13_29_squats squats)",
+                      choices=("08_10", "09_01", "111_10", "111_37", "75_10", "90_18", "115_06", "13_29_jacks",
+                               "13_29_squats")),
     "reverse": Parameter(False, bool, "", "play the clip backwards"),
     **_mocap_params(6.0),
 })
@@ -346,5 +479,6 @@ def vital_signs(out, posture, **p):
     _write_still(out, "vital_signs", posture, p)
 
 
-__all__ = ["SWAY_DEFAULT", "WINDOWS", "fall", "jump", "mocap_clip", "mocap_person", "pick_up", "run", "sit_down",
+__all__ = ["BOXING_POSTURE", "SWAY_DEFAULT", "WINDOWS", "boxing", "boxing_person", "fall", "jump", "jump_in_place", "jump_in_place_person", "jumping_jacks",
+           "mocap_clip", "mocap_person", "pick_up", "run", "sit_down", "squat",
            "stand_still", "stand_up", "still_person", "vital_signs", "wave"]

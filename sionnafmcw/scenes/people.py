@@ -9,7 +9,8 @@ activity            person
 ``walk``            the Boulic-Thalmann walker (:mod:`sionnafmcw.scenes.walking`) on a straight track, ``walk_speed``
 ``walk_circle``     the same walker on a circle of ``circle_radius`` (its centre the drawn position)
 ``run`` ...         the activity library's motion capture (:mod:`sionnafmcw.scenes.activities`: ``run``, ``sit_down``,
-``pick_up``         ``stand_up``, ``wave``, ``jump``, ``fall``, ``pick_up``), from ``time_offset``
+``squat``           ``stand_up``, ``wave``, ``jump``, ``fall``, ``pick_up``, ``jumping_jacks``, ``squat``), from
+                    ``time_offset``
 ``clip``            ``clip``: a shipped clip's name or the path of any BVH file (from its frame 1);
                     labelled with the shipped clip's activity, else the file's name (:func:`~sionnafmcw.mocap.library.clip_label`)
 ``stand_still``     standing still: postural sway, breathing and heartbeat (:mod:`sionnafmcw.scenes.vitals`)

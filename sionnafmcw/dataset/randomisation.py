@@ -1,0 +1,107 @@
+r"""Domain randomisation of RadHAR-like data sets: the physical ranges a spec draws each item from.
+
+:data:`RADHAR_RANGES` holds, for every randomised parameter of the ``radhar`` scenario
+(:mod:`sionnafmcw.scenes.radhar`) and of the radar, its draw and why that range;
+:func:`radhar_spec` makes a data-set spec of them (:mod:`.spec`), the classes in turn
+(``{"cycle": CLASSES}``: balanced). The ranges come from physics, data sheets and what RadHAR's
+paper and recordings say of the set-up, never from fitting anything to the real data: the real
+training split (``radhar/train``) served only to check that they cover it (the README of that
+folder, and the guide's table: per recording the median range of its moving points is 1.2-2.5 m,
+their median azimuth -18 to +32 degrees, static returns reach 5.2 m, the far wall).
+
+Receiver: the IWR1443's data sheet gives a noise figure of 15 dB (76-77 GHz) and 16 dB (77-81 GHz)
+and phase noise of -95 / -93 dBc/Hz at 1 MHz offset; units differ from the typical values and the
+noise figure rises with temperature, so the noise figure is drawn over 14-18 dB and the phase noise
+among -98, -95, -92 dBc/Hz at 1 MHz.
+"""
+
+from __future__ import annotations
+
+from ..scenes.radhar import CLASSES
+
+#: ``{parameter: (draw, why)}``: scenario parameters of ``radhar``.
+RADHAR_RANGES = {
+    "person_range": ({"uniform": [1.0, 4.0]}, "RadHAR's subjects stood 1.5-3 m from the sensor (its README; the "
+                     "real recordings' moving points: per-recording median 1.2-2.5 m); 1-4 m covers it with margin "
+                     "and stays inside the IWR1443 short-range .cfg's reach (10.5 m at 240 samples x 0.0436 m)"),
+    "person_azimuth": ({"uniform": [-0.6, 0.6]}, "+-34 degrees: the real moving points' median azimuth lies within "
+                       "-18..+32 degrees per recording"),
+    "heading_offset": ({"uniform": [-0.5, 0.5]}, "+-29 degrees from facing the sensor (a walk: from crossing its line "
+                       "of sight): the subjects faced it, turned by a comfortable stance angle"),
+    "person_height": ({"uniform": [1.55, 1.95]}, "adult statures, short women to tall men; the clips are scaled "
+                      "to it, so limb lengths and speeds follow"),
+    "build": ({"choice": ["male", "female"]}, "girths of men or women (Heinz et al. 2003)"),
+    "playback_rate": ({"uniform": [0.8, 1.1]}, "-20 to +10 % in tempo: people repeat the same movement faster or "
+                      "slower (an assumed spread, not a measured one); +10 % at most so that 60 frames at 30 fps "
+                      "fit in the 2.29 s walk clip"),
+    "walk_source": ({"choice": ["clip", "boulic"]}, "walk: captured (CMU 08_10) or the Boulic-Thalmann walker"),
+    "mirror": ({"choice": [False, True]}, "either side leads (left- and right-handed, either foot first)"),
+    "fist_speed": ({"uniform": [4.0, 9.0]}, "boxing: straight punches of recreational to trained boxers (6.3 m/s "
+                   "jab of juniors, 7.5-9.3 m/s in combinations and maximal punches; sionnafmcw.mocap.punches)"),
+    "punch_rate": ({"uniform": [1.0, 3.0]}, "boxing: shadow-boxing tempo, one to three punches a second"),
+    "jump_height": ({"uniform": [0.08, 0.3]}, "jump: apex rise of repeated jumps in place, a hop to a brisk jump "
+                    "(a maximal countermovement jump reaches about 0.45 m)"),
+    "crouch": ({"uniform": [0.08, 0.2]}, "jump: depth of the countermovement and of the landing"),
+    "jump_rate": ({"uniform": [0.5, 0.7]}, "jump: repeated jumps with a stand in between; at most 0.7/s so that "
+                  "the slowest jump of these ranges (1.4 s) fits"),
+    "radar_height": ({"uniform": [0.8, 1.5]}, "a sensor on a desk or a tripod at chest height (not published for "
+                     "RadHAR; its point clouds' z spread of +-0.5-1.5 m about the sensor suits a sensor near mid "
+                     "height of the person)"),
+    "radar_tilt": ({"uniform": [-0.1, 0.2]}, "-6 to +11 degrees: mounted level by eye, slightly down for a tall "
+                   "mount"),
+    "room_margin": ({"uniform": [1.5, 3.5]}, "free space around the person and the sensor: rooms of about "
+                    "4 x 4 m to 9 x 8 m; the real static returns reach 5.2 m (95th percentile), the far wall"),
+    "room_height": ({"uniform": [2.5, 3.2]}, "ceilings of offices and labs"),
+    "wall_material": ({"choice": ["concrete", "plasterboard", "wood", "glass", "chipboard"]},
+                      "every wall material the ITU model gives at 77 GHz"),
+    "floor_material": ({"choice": ["floorboard", "concrete", "wood", "chipboard"]},
+                       "every floor material the ITU model gives at 77 GHz"),
+    "wall_scattering": ({"uniform": [0.1, 0.4]}, "diffuse share of smooth to rough building surfaces at mm-wave"),
+    "tables": ({"choice": [0, 1, 2]}, "furniture: a lab or office"),
+    "chairs": ({"choice": [0, 1, 2, 3, 4]}, "clutter: chairs"),
+    "shelves": ({"choice": [0, 1]}, "furniture against a wall"),
+    "cabinets": ({"choice": [0, 1]}, "metal cabinets: strong static reflectors"),
+}
+#: ``{RadarConfig field: (draw, why)}``: receiver fields drawn per item (module docstring).
+RADAR_RANGES = {
+    "noise_figure": ({"uniform": [14.0, 18.0]}, "IWR1443 data sheet: 15 dB (76-77 GHz), 16 dB (77-81 GHz); "
+                     "unit spread and temperature"),
+    "phase_noise": ({"choice": [[[1e6, -98.0]], [[1e6, -95.0]], [[1e6, -92.0]]]},
+                    "IWR1443 data sheet: -95 / -93 dBc/Hz at 1 MHz; +-3 dB between units"),
+}
+
+
+def radhar_spec(name: str = "radhar-synthetic", count: int = 50, seed: int = 0, radar: str = "walk-77ghz",
+                engine: str = "path", engine_options: dict | None = None, num_frames: int = 60, fps: float = 30.0,
+                randomise: bool = True, **fixed) -> dict:
+    """A data-set spec of the ``radhar`` scenario: the classes in turn, every range of
+    :data:`RADHAR_RANGES` and :data:`RADAR_RANGES` drawn per item (``randomise``; else the builder's
+    defaults), ``radar`` a preset name or the path of a radar ``.json`` or TI ``.cfg`` (RadHAR's own:
+    ``1443es1_short_range_3d.cfg``); ``fixed`` sets scenario parameters (overriding a range)."""
+    from ..radar import RadarConfig
+
+    params = {"activity": {"cycle": list(CLASSES)}, "num_frames": num_frames, "fps": fps}
+    radar_entry: dict = {"preset": radar} if radar in RadarConfig.presets() else {"file": str(radar)}
+    if randomise:
+        params.update({k: d for k, (d, _) in RADHAR_RANGES.items()})
+        radar_entry.update({k: d for k, (d, _) in RADAR_RANGES.items()})
+    params.update(fixed)
+    spec = {"name": name, "scenario": "radhar", "count": int(count), "seed": int(seed), "radar": radar_entry,
+            "engine": engine, "parameters": params}
+    if engine_options:
+        spec["engine_options"] = dict(engine_options)
+    return spec
+
+
+def range_table() -> str:
+    """The ranges as a Markdown table (parameter, draw, why), for the guide."""
+    rows = ["| parameter | drawn from | why |", "|---|---|---|"]
+    for table in (RADHAR_RANGES, RADAR_RANGES):
+        for k, (d, why) in table.items():
+            kind, args = next(iter(d.items()))
+            text = f"U[{args[0]:g}, {args[1]:g}]" if kind == "uniform" else f"one of {args}"
+            rows.append(f"| `{k}` | {text} | {why} |")
+    return "\n".join(rows)
+
+
+__all__ = ["RADAR_RANGES", "RADHAR_RANGES", "radhar_spec", "range_table"]

@@ -1,0 +1,194 @@
+r"""RadHAR's five activities on the mocap body (``sionnafmcw.scenes.radhar``, ``jumping_jacks``, ``squat``,
+``boxing``) and the mirror of a clip.
+
+* Every class builds in the radar's frame: the person's start point (a walk's middle) at the range and
+  azimuth asked, the manifest labelled with the class; a user's BVH file plays for any class; a walk
+  that would run into the radar is an error.
+* Jumping jacks: the hands rise above the head once per jack, and a jack is two hops (feet apart, feet
+  together), so the wrists' period is twice the pelvis's; the playback rate divides both.
+* Squats: two of them, each a deep squat: at the bottom the hip joint is no higher than the knee (the
+  thigh at or below horizontal), so the pelvis drops by at least the thigh's length times its sine, and
+  at least by half of it.
+* Boxing: the fists' tips (the hand's far end, straight along the forearm) peak at ``fist_speed`` (the
+  minimum-jerk stroke's peak :math:`15D/(8T)`; the slerp between the keyframes at 480 per s and the
+  960 fps differences leave < 0.5 %, measured to converge as :math:`h^2`), no vertex of the forearm and
+  hand moves faster (to 1.5 %: between keyframes the slerped arcs run up to 0.65 % faster than the
+  chords, measured), the wrist moves slower; the punches alternate sides, every fist reaches ``REACH``
+  of its arm.
+* Jumps in place: in flight the pelvis falls freely (its second difference is :math:`-g` to 1e-5 m/s^2:
+  at 240 fps every frame falls on a keyframe, where the root's height is the ballistic formula's), rises ``jump_height`` above standing, and the feet leave the floor for
+  :math:`2\sqrt{2h/g}`; on the floor the ankles do not move.
+* Mirror: joint :math:`j` of the mirrored clip is at :math:`\mathbf M\mathbf o_{\bar j}` of the original
+  (:math:`\mathbf M` = diag(-1, 1, 1), BVH axes), its world rotation :math:`\mathbf M\mathbf R_{\bar j}\mathbf M`.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+
+import numpy as np
+import pytest
+
+from sionnafmcw import load_animation, scenes
+from sionnafmcw.mocap import library
+from sionnafmcw.mocap.mirror import MIRROR, counterpart, mirrored
+from sionnafmcw.mocap.punches import FIST_SPEED_RANGE, REACH
+from sionnafmcw.mocap.skeleton import ClipMotion
+from sionnafmcw.mocap.jumps import G
+from sionnafmcw.scenes.activities import boxing_person, jump_in_place_person, mocap_person
+from sionnafmcw.scenes.keypoints import KEYPOINTS
+from sionnafmcw.scenes.radhar import CLASSES
+
+K = KEYPOINTS.index
+
+
+def _params(name, **over):
+    return {**{k: v.default for k, v in scenes.parameters(name).items()}, "body_mesh_edge": 0.06, **over}
+
+
+def _period(signal, fps) -> float:
+    """The period (s) of ``signal``: the lag of the autocorrelation's highest peak after its first zero."""
+    x = signal - signal.mean()
+    ac = np.correlate(x, x, "full")[x.size - 1:]
+    first_zero = int(np.argmax(ac < 0))
+    lag = first_zero + int(np.argmax(ac[first_zero:x.size // 2]))
+    # parabolic refinement of the peak
+    a, b, c = ac[lag - 1], ac[lag], ac[lag + 1]
+    return (lag + 0.5 * (a - c) / (a - 2 * b + c)) / fps
+
+
+@pytest.mark.parametrize("activity", CLASSES)
+def test_every_radhar_class_builds_in_the_radars_frame(tmp_path, activity):
+    r, phi = 2.5, 0.3
+    n = 5
+    out = scenes.build("radhar", tmp_path / activity, activity=activity, num_frames=n, body_mesh_edge=0.06,
+                       person_range=r, person_azimuth=phi, room=False)
+    manifest = json.loads((out / "animation.json").read_text())
+    assert manifest["activity"]["name"] == activity
+    person = manifest["people"]["persons"][0]
+    assert person["activity"] == activity
+    assert np.allclose(manifest["radar"]["position"], [0.0, 0.0, 1.0])
+    pelvis = np.asarray(person["keypoints"])[:, K("pelvis"), :2]
+    if activity == "walk":      # the walk's middle at (r, phi), crossing the line of sight
+        assert np.allclose(pelvis[n // 2], [r * math.cos(phi), r * math.sin(phi)], atol=1e-5)
+        assert person["heading"] == pytest.approx(phi + math.pi / 2)
+    else:                       # the root starts over its ground point, facing the radar
+        assert np.allclose(person["start"], [r * math.cos(phi), r * math.sin(phi)])
+        assert np.allclose(pelvis[0], person["start"], atol=1e-5)
+        assert person["heading"] == pytest.approx(phi + math.pi)
+    load_animation(out).check_frequency(77e9)
+
+
+def test_a_user_bvh_plays_for_any_class(tmp_path):
+    path = tmp_path / "my_squat.bvh"
+    shutil.copy(library.clip_info("13_29_squats").path, path)
+    out = scenes.build("radhar", tmp_path / "s", activity="boxing", bvh=str(path), num_frames=2,
+                       body_mesh_edge=0.06, room=False)
+    manifest = json.loads((out / "animation.json").read_text())
+    assert manifest["activity"]["name"] == "boxing" and "my_squat.bvh" in manifest["activity"]["motion_source"]
+    with pytest.raises(ValueError, match="bvh="):
+        scenes.build("radhar", tmp_path / "t", bvh=str(tmp_path / "none.bvh"), num_frames=2, room=False)
+    with pytest.raises(ValueError, match=r"the walk passes 0\.\d\d m from the radar"):
+        scenes.build("radhar", tmp_path / "w", activity="walk", person_range=0.5, heading_offset=math.pi / 2,
+                     num_frames=60, room=False, body_mesh_edge=0.06)
+
+
+@pytest.mark.parametrize("rate", [1.0, 1.5])
+def test_jumping_jacks_hands_above_the_head_once_per_two_hops(rate):
+    fps = 60.0
+    person = mocap_person("13_29_jacks", _params("jumping_jacks", fps=fps, playback_rate=rate))
+    kp = person.keypoints()
+    hands = np.maximum(kp[:, K("left_wrist"), 2], kp[:, K("right_wrist"), 2]) - kp[:, K("head"), 2]
+    pelvis = kp[:, K("pelvis"), 2]
+    t_hands, t_pelvis = _period(hands, fps), _period(pelvis, fps)
+    assert t_hands == pytest.approx(2 * t_pelvis, abs=2.0 / fps)            # two frames of the two estimates
+    assert t_pelvis * rate == pytest.approx(0.55, abs=2.0 / fps * rate)   # the README's root peaks: 66 frames at 120 fps
+    above = hands > 0.0
+    rises = np.flatnonzero(above[1:] & ~above[:-1])
+    assert len(rises) >= 3                                                # above the head and back, again and again
+    assert np.diff(rises).mean() / fps == pytest.approx(t_hands, abs=2.0 / fps)
+
+
+def test_squats_drop_the_pelvis_twice_below_the_knees():
+    person = mocap_person("13_29_squats", _params("squat"))
+    kp = person.keypoints()
+    pelvis = kp[:, K("pelvis"), 2]
+    thigh = np.linalg.norm(kp[0, K("left_hip")] - kp[0, K("left_knee")])
+    mid = 0.5 * (pelvis.max() + pelvis.min())
+    below = pelvis < mid
+    assert np.count_nonzero(below[1:] & ~below[:-1]) == 2                  # two squats
+    low = int(np.argmin(pelvis))
+    for side in ("left", "right"):
+        assert kp[low, K(f"{side}_hip"), 2] <= kp[low, K(f"{side}_knee"), 2]     # thigh at or below horizontal
+    assert pelvis[0] - pelvis[low] >= 0.5 * thigh
+
+
+def test_boxing_fists_peak_at_the_measured_speed():
+    from sionnafmcw.mocap.anatomy import WINTER
+
+    fps = 960.0
+    speed = 7.2
+    p = _params("boxing", fps=fps, num_frames=int(2.0 * fps), fist_speed=speed)
+    person, punches = boxing_person(p)
+    kp = person.keypoints()
+    assert FIST_SPEED_RANGE[0] <= speed <= FIST_SPEED_RANGE[1]
+    assert punches.sides[:4] == ["left", "right", "left", "right"]
+    hand = WINTER["hand"] * p["person_height"]
+    for side in ("left", "right"):
+        wrist, elbow, shoulder = (kp[:, K(f"{side}_{j}")] for j in ("wrist", "elbow", "shoulder"))
+        forearm = wrist - elbow
+        tip = wrist + hand * forearm / np.linalg.norm(forearm, axis=1, keepdims=True)   # the fist's tip
+        v_tip = np.linalg.norm(np.diff(tip, axis=0), axis=1) * fps
+        v_wrist = np.linalg.norm(np.diff(wrist, axis=0), axis=1) * fps
+        assert v_tip.max() == pytest.approx(speed, rel=0.005)
+        assert v_wrist.max() < v_tip.max()
+        arm = np.linalg.norm(shoulder[0] - elbow[0]) + np.linalg.norm(forearm[0]) + hand
+        assert np.linalg.norm(tip - shoulder, axis=1).max() == pytest.approx(REACH * arm, rel=0.01)
+        # no surface of the arm moves faster than the fist's tip (around its fastest instant)
+        k = int(np.argmax(v_tip))
+        seg = f"{side}_lower_arm"
+        verts = np.array([person.world_vertices(i)[seg] for i in range(k - 3, k + 5)])
+        v_mesh = np.linalg.norm(np.diff(verts, axis=0), axis=2).max(axis=1) * fps
+        assert v_mesh.max() <= speed * 1.015        # the slerped arcs between keyframes: 0.65 % measured
+    with pytest.raises(ValueError, match="fist_speed"):
+        boxing_person(_params("boxing", fist_speed=20.0))
+
+
+def test_jumps_in_place_fly_ballistically():
+    fps, h = 240.0, 0.2
+    person = jump_in_place_person(_params("jump_in_place", fps=fps, num_frames=int(3.0 * fps), jump_height=h))
+    kp = person.keypoints().astype(float)
+    pelvis = kp[:, K("pelvis"), 2]
+    ankles = kp[:, [K("left_ankle"), K("right_ankle")], 2]
+    standing = pelvis[0]
+    assert pelvis.max() - standing == pytest.approx(h, abs=1e-3)            # apex: the frame grid within 1 mm
+    air = ankles.min(axis=1) > ankles[0].min() + 1e-6
+    rises = np.flatnonzero(air[1:] & ~air[:-1])
+    falls = np.flatnonzero(~air[1:] & air[:-1])
+    assert len(rises) == len(falls) == 2                                   # two jumps in 3 s at 0.75/s
+    flight = 2 * math.sqrt(2 * h / G)
+    for a, b in zip(rises, falls):
+        assert (b - a) / fps == pytest.approx(flight, abs=1.5 / fps)        # a frame at each end
+        acc = np.diff(pelvis[a + 2:b - 1], 2) * fps**2
+        assert np.allclose(acc, -G, rtol=0, atol=1e-5)                     # 240 fps falls on the keyframes
+    ground = ~air
+    assert np.ptp(ankles[ground], axis=0).max() < 1e-6                     # feet flat and still on the floor
+
+
+def test_mirror_reflects_the_skeleton_left_for_right():
+    clip = library.load_clip("13_29_jacks")
+    mir = mirrored(clip)
+    times = np.array([0.1, 0.5, 1.3])
+    rot, org = ClipMotion(clip, unit=1.0, axes=np.eye(3)).joint_frames(times)
+    rot_m, org_m = ClipMotion(mir, unit=1.0, axes=np.eye(3)).joint_frames(times)
+    for j, name in enumerate(clip.names):
+        k = clip.names.index(counterpart(name)) if counterpart(name) in clip.names else j
+        assert np.allclose(org_m[:, j], org[:, k] @ MIRROR, atol=1e-9), name
+        assert np.allclose(rot_m[:, j], MIRROR @ rot[:, k] @ MIRROR, atol=1e-9), name
+    assert counterpart("LHipJoint") == "RHipJoint" and counterpart("Spine") == "Spine"
+    # a mirrored person's left wrist does what the right one did, on the other side of the body
+    p = _params("jumping_jacks", num_frames=20)
+    a, b = mocap_person("13_29_jacks", p).keypoints(), mocap_person("13_29_jacks", {**p, "mirror": True}).keypoints()
+    assert np.allclose(a[:, K("right_wrist"), 2], b[:, K("left_wrist"), 2], atol=1e-3)
