@@ -54,7 +54,8 @@ def real_peak_values(real: Path) -> dict:
               "moving_1.5_3.2_m": (distance > 1.5) & (distance < 3.2) & (doppler != 8),
               "near_0.3_m": distance < 0.3}
     return {name: {"points": int(mask.sum()),
-                   "percentiles": dict(zip(map(str, PERCENTILES), np.percentile(peak[mask], PERCENTILES).round(1).tolist()))}
+                   "percentiles": dict(zip(map(str, PERCENTILES),
+                                           np.percentile(peak[mask], PERCENTILES).round(1).tolist()))}
             for name, mask in groups.items()}
 
 
