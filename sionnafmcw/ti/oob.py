@@ -69,6 +69,8 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 10. **Angle.** SDK 2.x keeps only :math:`D` of the Doppler FFT, so it recomputes the complex
     Doppler spectrum of each detected range bin with every stage scaled (the sum divided by
     :math:`N_d`, ``HWAutil_configDopplerFFTSingleRangeBin``); SDK 3.x uses the stored one.
+    (SDK 2.x applies the channel coefficients first, :math:`(xc + 2^{14}) \gg 15`, then the
+    Doppler rotation in float cast to int16; SDK 3.x the other way round, both rounded.)
     Doppler compensation of the TDM slots, :math:`e^{-j 2\pi q\, d_s/(M N_d)}` for
     slot :math:`q` and signed Doppler bin :math:`d_s` (``MmwDemo_dopplerCompensation``); the
     ``compRangeBiasAndRxChanPhase`` coefficients (Q15) multiply the virtual antennas; the azimuth
@@ -403,6 +405,21 @@ def _adc_codes(cube: np.ndarray, radar) -> np.ndarray:
     return _saturate16(fired.astype(np.complex128) * scale)
 
 
+def _phase_q15_sdk2(samples: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
+    r"""SDK 2.x ``MmwDemo_rxChanPhaseBiasCompensation``: int16 samples times the Q15 coefficients,
+    :math:`(x c + 2^{14}) \gg 15` per I and Q, saturated to int16."""
+    product = samples * np.round(coefficients * 32768.0)
+    re = np.clip(np.floor((product.real + 0x4000) / 32768.0), -32768, 32767)
+    im = np.clip(np.floor((product.imag + 0x4000) / 32768.0), -32768, 32767)
+    return re + 1j * im
+
+
+def _rotate_sdk2(samples: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """SDK 2.x ``MmwDemo_dopplerComp``: the rotation in float, cast to int16 (truncated to zero)."""
+    rotated = samples * rotation
+    return np.clip(np.trunc(rotated.real), -32768, 32767) + 1j * np.clip(np.trunc(rotated.imag), -32768, 32767)
+
+
 def dc_range_signature(range_spectra: np.ndarray, processing: TiProcessing) -> np.ndarray | None:
     """The DC range signature the device learns: mean over the chirps of ``range_spectra``
     ``[chirp, slot, rx, range bin]`` (the first ``numAvg`` chirps of the run, at most) of the
@@ -522,8 +539,11 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
     first = {k: [] for k in ("x", "y", "z", "r", "d", "ds", "peak", "det", "noise")}
     second = {k: [] for k in first}
     for r, d, ds in zip(ranges.tolist(), dopplers.tolist(), signed.tolist()):
-        samples = angle_rdv[r, d] * np.exp(-2j * np.pi * slot * ds / (array.num_tx * n_doppler))
-        samples = _saturate16(_saturate16(samples) * phase)
+        rotation = np.exp(-2j * np.pi * slot * ds / (array.num_tx * n_doppler))
+        if sdk == 2:      # channel phase first, then the TDM rotation (MmwDemo_processAngle)
+            samples = _rotate_sdk2(_phase_q15_sdk2(angle_rdv[r, d], phase), rotation)
+        else:
+            samples = _saturate16(_saturate16(angle_rdv[r, d] * rotation) * phase)
         row = np.zeros(ANGLE_FFT_SIZE, complex)
         row[array.azimuth_column] = samples[array.azimuth]
         azimuth = np.fft.fft(row) * (AZIMUTH_HWA_GAIN if sdk == 2 else 1.0)
