@@ -615,7 +615,7 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
     gui = processing.gui_monitor
     azimuth_map = None
     if gui.range_azimuth_heatmap:
-        azimuth_map = cube_rdv[:, 0, :][:, array.azimuth].astype(np.complex64)
+        azimuth_map = angle_rdv[:, 0, :][:, array.azimuth].astype(np.complex64)   # SDK 2.x: the single-bin FFT
     return DetectedPoints(
         frame_number=int(frame_number), time=float(time), sdk=sdk, platform=_platform(radar, sdk),
         x=x, y=y, z=z,
