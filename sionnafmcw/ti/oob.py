@@ -116,6 +116,25 @@ would overflow its 24-bit word for any input above 4096 and the matrix would be 
 On the IWR1443 (errata, ES1.0-ES3.0) the output formatter saturates unsigned 16-bit words as
 signed ones: ``peakVal`` and :math:`D` saturate at 32767.
 
+The log2-magnitude unit sits in the core, before the output formatter: it takes the log2 of the
+24-bit word, which for the Doppler paramset (``srcScale 0``) is :math:`2^8` times the int16
+spectrum, hence the offset of 8 in :math:`D`. Its internal format is not documented (the
+16-bit output is Q11); the offset cancels wherever ``divShift`` is the log2 of the cells averaged,
+and decides the detection floor where it is not (RadHAR's line, below).
+
+Sources: the SDK 2.1 xWR14xx demo's parameter sets (``config_hwa_util.c``: ``HWAutil_configRangeFFT``,
+``HWAutil_configDopplerFFT``, ``HWAutil_configDopplerFFTSingleRangeBin``, ``HWAutil_configCFAR``,
+``HWAutil_configAngleEstAzimuth``) and their use (``data_path.c``, ``main.c``:
+``MmwDemo_processAngle``; ``post_processing.c``: ``angleEstimationAzimElev``,
+``MmwDemo_dopplerComp``); TI's E2E answers "AWR6843: HWA complex multiplication - magnitude squared
+mode" (``srcScale 0`` puts 16-bit data in the upper two bytes) and "IWR1443BOOST: CFAR threshold
+format clarification" (14xx threshold: log2 in Q9, :math:`T = 512\,T_{dB}/6`; HWA log-mode
+threshold added to the noise average); TI's visualizer writing 9 dB as ``cfarCfg ... 768`` for
+RadHAR's profile (SDK 1.2, ``1443_3d_original.cfg`` of the TI ROS driver); the IWR1443 errata
+(SWRZ074, output formatter saturation); TI's AWR2944 Doppler DPU averaging :math:`N` cells with
+``numNoiseSamplesRight = N/2`` and ``nAvgDivFactor`` :math:`\log_2 N` (the CFAR noise fields count
+pairs of cells).
+
 The scale chain end to end (RadHAR's ``.cfg``: :math:`N_s = 240`, :math:`N_r = 256`,
 :math:`L = N_d = 16`, :math:`N = 12` virtual antennas, 8 of them in azimuth, :math:`N' = 16`)
 ---------------------------------------------------------------------------------------------
