@@ -1,6 +1,6 @@
 """The SDK 1.x/2.x chain's peakVal scale against RadHAR (see sionnafmcw.validation.ti_sdk2_scale).
 
-    python validation/ti_sdk2_scale.py --real ../shared/realdata/radhar/train [--frames 40]
+    python validation/ti_sdk2_scale.py --real ../shared/realdata/radhar/train [--frames 40] [--out DIR]
 """
 
 import sys

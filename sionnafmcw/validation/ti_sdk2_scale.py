@@ -12,9 +12,9 @@ noise-only frame, are set beside RadHAR's recordings (``peakVal = 10^{intensity/
 points, the moving points at 1.5-3.2 m (where its people stand) and the near-range points
 (< 0.3 m: the Tx-Rx leakage, which these frames do not model).
 
-    python validation/ti_sdk2_scale.py --real ../shared/realdata/radhar/train [--frames 40]
+    python validation/ti_sdk2_scale.py --real ../shared/realdata/radhar/train [--frames 40] [--out DIR]
 
-prints a table and the metrics JSON last.
+prints a table and the metrics JSON last (also written to ``DIR/metrics.json``).
 """
 
 from __future__ import annotations
@@ -99,7 +99,11 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--real", type=Path, required=True, help="RadHAR's folder of .npz recordings")
     parser.add_argument("--frames", type=int, default=40, help="simulated frames per case (default 40)")
+    parser.add_argument("--out", type=Path, help="folder for metrics.json")
     args = parser.parse_args(argv)
+    if args.frames < 1:
+        print(f"error: --frames must be >= 1, got {args.frames}", file=sys.stderr)
+        return 2
     try:
         real = real_peak_values(args.real)
         cfg = _radhar_cfg(args.real)
@@ -113,5 +117,11 @@ def main(argv=None) -> int:
               f"{' / '.join(f'{v:g}' for v in row['percentiles'].values())}")
     print(f"sim noise-only frames: {sim['noise_only']['points_per_frame_mean']:.2f} points per frame "
           f"(max {sim['noise_only']['points_per_frame_max']})")
-    print(json.dumps({"real": real, "simulated": sim}))
+    metrics = {"real": real, "simulated": sim}
+    if args.out is not None:
+        args.out.mkdir(parents=True, exist_ok=True)
+        temporary = args.out / "metrics.json.tmp"
+        temporary.write_text(json.dumps(metrics, indent=1))
+        temporary.replace(args.out / "metrics.json")
+    print(json.dumps(metrics))
     return 0
