@@ -33,6 +33,7 @@ def test_validation_prints_and_writes_its_metrics(tmp_path, capsys):
     assert sim["noise_only"]["points_per_frame_max"] == 0
     real = metrics["real"]
     assert real["all"]["points"] > real["moving_1.5_3.2_m"]["points"] > 0
+    assert real["frames"] > 0 and real["points_per_frame_beyond_6_m"] >= 0.0
     assert real["all"]["percentiles"]["5"] <= real["all"]["percentiles"]["50"] <= real["all"]["percentiles"]["95"]
 
 

@@ -10,7 +10,8 @@ through :func:`sionnafmcw.ti.oob.detect` on synthesised frames of
 and the simulated ``peakVal`` of the points at the reflector's range, and the points per
 noise-only frame, are set beside RadHAR's recordings (``peakVal = 10^{intensity/10} - 1``): all
 points, the moving points at 1.5-3.2 m (where its people stand) and the near-range points
-(< 0.3 m: the Tx-Rx leakage, which these frames do not model).
+(< 0.3 m: the Tx-Rx leakage, which these frames do not model); and the recordings' points beyond
+6 m (behind the room's walls, where only receiver noise can make a point) per frame.
 
     python validation/ti_sdk2_scale.py --real ../shared/realdata/radhar/train [--frames 40] [--out DIR]
 
@@ -44,19 +45,24 @@ def real_peak_values(real: Path) -> dict:
     files = sorted(real.rglob("*.npz"))
     if not files:
         raise FileNotFoundError(f"{real}: no RadHAR .npz recordings below this folder")
-    intensity, distance, doppler = [], [], []
+    intensity, distance, doppler, frames = [], [], [], 0
     for f in files:
         with np.load(f) as z:
             intensity.append(z["intensity"]), distance.append(z["range"]), doppler.append(z["doppler_bin"])
+            frames += np.unique(z["frame"]).size
     peak = 10.0 ** (np.concatenate(intensity) / 10.0) - 1.0
     distance, doppler = np.concatenate(distance), np.concatenate(doppler)
     groups = {"all": np.ones(peak.shape, bool),
               "moving_1.5_3.2_m": (distance > 1.5) & (distance < 3.2) & (doppler != 8),
               "near_0.3_m": distance < 0.3}
-    return {name: {"points": int(mask.sum()),
-                   "percentiles": dict(zip(map(str, PERCENTILES),
-                                           np.percentile(peak[mask], PERCENTILES).round(1).tolist()))}
-            for name, mask in groups.items()}
+    out = {name: {"points": int(mask.sum()),
+                  "percentiles": dict(zip(map(str, PERCENTILES),
+                                          np.percentile(peak[mask], PERCENTILES).round(1).tolist()))}
+           for name, mask in groups.items()}
+    # beyond the room's walls only receiver noise is left: its false alarms per frame
+    out["frames"] = frames
+    out["points_per_frame_beyond_6_m"] = float(np.count_nonzero(distance > 6.0) / max(frames, 1))
+    return out
 
 
 def simulated(cfg: Path, frames: int, seed: int = 0) -> dict:
@@ -111,12 +117,13 @@ def main(argv=None) -> int:
         print(f"error: {error}", file=sys.stderr)
         return 2
     sim = simulated(cfg, args.frames)
-    for name, row in {**{f"real {k}": v for k, v in real.items()},
+    for name, row in {**{f"real {k}": v for k, v in real.items() if isinstance(v, dict)},
                       **{f"sim {k}": v for k, v in sim.items() if k != "noise_only"}}.items():
         print(f"{name:28s} {row['points']:8d} points  peakVal p{'/p'.join(map(str, PERCENTILES))}: "
               f"{' / '.join(f'{v:g}' for v in row['percentiles'].values())}")
     print(f"sim noise-only frames: {sim['noise_only']['points_per_frame_mean']:.2f} points per frame "
-          f"(max {sim['noise_only']['points_per_frame_max']})")
+          f"(max {sim['noise_only']['points_per_frame_max']}); real beyond 6 m: "
+          f"{real['points_per_frame_beyond_6_m']:.4f} points per frame over {real['frames']} frames")
     metrics = {"real": real, "simulated": sim}
     if args.out is not None:
         args.out.mkdir(parents=True, exist_ok=True)
