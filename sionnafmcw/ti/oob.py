@@ -135,9 +135,12 @@ RadHAR's profile (SDK 1.2, ``1443_3d_original.cfg`` of the TI ROS driver); the I
 ``numNoiseSamplesRight = N/2`` and ``nAvgDivFactor`` :math:`\log_2 N` (the CFAR noise fields count
 pairs of cells).
 
-The scale chain end to end (RadHAR's ``.cfg``: :math:`N_s = 240`, :math:`N_r = 256`,
-:math:`L = N_d = 16`, :math:`N = 12` virtual antennas, 8 of them in azimuth, :math:`N' = 16`)
----------------------------------------------------------------------------------------------
+The scale chain end to end
+--------------------------
+From watts at the receiver to ``peakVal``, for RadHAR's ``.cfg`` (:math:`N_s = 240`,
+:math:`N_r = 256`, :math:`L = N_d = 16`, :math:`N = 12` virtual antennas, 8 of them in azimuth,
+:math:`N' = 16`):
+
 * A tone of amplitude :math:`a` (:math:`\sqrt{\mathrm W}`) at the receiver input becomes
   :math:`A = c\,a` ADC words, :math:`c = 10^{G/20}(2^{15}-1)/\sqrt{P_{FS}}`
   (:mod:`sionnafmcw.receiver.adc`; :math:`G` = 30 dB, :math:`P_{FS}` = 0 dBm: the receiver noise,
