@@ -557,3 +557,18 @@ def test_detect_refuses_a_cube_of_another_radar():
     radar, processing = setup(3)
     with pytest.raises(OobError, match=r"does not match the radar's \[chirp, tx, rx, sample\]"):
         detect(np.zeros((16, 3, 4, 128), np.complex64), radar, processing)
+
+
+def test_sdk2_angle_inputs_follow_the_demos_integer_rules():
+    """SDK 2.x: the channel coefficients multiply in Q15 with (x c + 2^14) >> 15 (so 0.5 halves
+    rounding half up, -1 + 0j negates with the -32768 coefficient), saturated; then the TDM Doppler
+    rotation is computed in float and cast to int16 (truncated to zero)."""
+    from sionnafmcw.ti.oob import _phase_q15_sdk2, _rotate_sdk2
+    x = np.array([3 + 5j, -3 - 5j, 32767 + 0j, -7 + 1j])
+    half = _phase_q15_sdk2(x, np.full(4, 0.5 + 0j))
+    np.testing.assert_array_equal(half, np.floor((x.real + 1) / 2) + 1j * np.floor((x.imag + 1) / 2))
+    negated = _phase_q15_sdk2(x, np.full(4, -1.0 + 0j))
+    np.testing.assert_array_equal(negated, np.clip(-x.real, -32768, 32767) + 1j * np.clip(-x.imag, -32768, 32767))
+    rotated = _rotate_sdk2(np.array([10 + 0j, 10 + 0j]), np.exp(-1j * np.array([0.3, -2.0])))
+    exact = 10 * np.exp(-1j * np.array([0.3, -2.0]))
+    np.testing.assert_array_equal(rotated, np.trunc(exact.real) + 1j * np.trunc(exact.imag))
