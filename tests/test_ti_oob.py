@@ -23,9 +23,9 @@ if not RADHAR_CFG.exists():
     RADHAR_CFG = Path("/work/shared/realdata/radhar/1443es1_short_range_3d.cfg")
 RADHAR_TEXT = RADHAR_CFG.read_text() if RADHAR_CFG.exists() else None
 
-#: SDK 2.x: RadHAR's IWR1443 .cfg with the threshold of the SDK 2.1 xWR14xx demo profiles
-#: (``cfarCfg 0 2 8 4 3 0 1280``, 15 dB for 8 virtual antennas): RadHAR's 4000 passes, through
-#: the HWA's scaling, only reflectors whose azimuth magnitude saturates the uint16 peakVal.
+#: SDK 2.x: RadHAR's IWR1443 .cfg with the CFAR line of the SDK 2.1 xWR14xx demo profiles
+#: (``cfarCfg 0 2 8 4 3 0 1280``: 15 dB over the noise cells' mean; RadHAR's own line compares with
+#: half that mean, see test_radhar_cfar_line_compares_with_half_the_noise_mean).
 SDK2_TEXT = RADHAR_TEXT.replace("cfarCfg 0 2 8 4 4 0 4000", "cfarCfg 0 2 8 4 3 0 1280") if RADHAR_TEXT else None
 
 GENERATIONS = {
@@ -34,8 +34,8 @@ GENERATIONS = {
 }
 
 
-#: Reflector RCS (m^2) per generation: SDK 2.x's HWA azimuth magnitude (uint16) saturates above
-#: ~0.05 m^2 at 2-3 m with the project's ADC scale, SDK 3.x compares float powers.
+#: Reflector RCS (m^2) per generation: small enough for SDK 2.x's azimuth magnitude (peakVal
+#: ~300 at 2-3 m, far from its 32767 limit), SDK 3.x compares float powers.
 RCS = {2: 0.01, 3: 1.0}
 
 
@@ -119,28 +119,71 @@ def test_peak_value_is_the_radar_equation_through_the_fixed_point_chain():
     """SDK 2.x peakVal = |azimuth FFT| at the peak. A boresight reflector at a range-bin centre and
     zero velocity, noise off, ideal IF chain: per virtual antenna the ADC tone has amplitude
     A = sqrt(P_t) |a| c (c words per sqrt(W)); the range FFT multiplies it by sum(w_r) / 4 (Blackman
-    in Q17, two butterfly stages halved), the Doppler FFT by sum(w_d) / (N_d / 2) (Hanning in Q17,
-    all stages but the first halved), the 64-point azimuth FFT at bin 0 by the 8 azimuth antennas.
-    Each int16 output rounds I and Q by <= 1/2: that bounds the difference."""
+    in Q17, two butterfly stages halved), the single-range-bin Doppler FFT that feeds the angle
+    estimation by sum(w_d) / N_d (Hanning in Q17, every stage halved), the 64-point azimuth FFT at
+    bin 0 by the 8 azimuth antennas and the HWA's output shift by 1/8 (dstScale 3): peakVal =
+    A sum(w_r) sum(w_d) / (4 N_d), the 8 antennas' sum taken back out. Each int16 output rounds I
+    and Q by <= 1/2 and the last shift truncates: that bounds the difference."""
     radar, processing = setup(2)
     radar = radar.replace(if_filter=None, phase_noise=None)
     processing = processing.replace(multi_object=processing.multi_object.__class__(False, 0.5))
-    points0 = None
     n_range = 256
     step = 299792458.0 * radar.fs / (2 * radar.slope * n_range)
     distance = 150 * step                                 # a range-bin centre at 6.5 m (far field)
-    echoes = Echoes.point_targets(radar, ranges=[distance], radial_velocities=[0.0], azimuths=[0.0], rcs=[0.1])
-    points0 = detect(synthesize(echoes, radar, noise=False), radar, processing)
+    echoes = Echoes.point_targets(radar, ranges=[distance], radial_velocities=[0.0], azimuths=[0.0], rcs=[0.3])
+    points = detect(synthesize(echoes, radar, noise=False), radar, processing)
     from sionnafmcw.receiver.adc import words_per_sqrt_watt
     amplitude = math.sqrt(radar.tx_power) * np.abs(echoes.a).mean() * words_per_sqrt_watt(radar)
     range_gain = blackman_q17(radar.num_samples).sum() / 4
-    doppler_gain = hanning_q17(radar.num_chirps).sum() / (16 / 2)
+    doppler_gain = hanning_q17(radar.num_chirps).sum() / 16
     n_azimuth = 8
+    assert AZIMUTH_HWA_GAIN == 1 / 8
     expected = amplitude * range_gain * doppler_gain * n_azimuth * AZIMUTH_HWA_GAIN
-    rounding = AZIMUTH_HWA_GAIN * n_azimuth * (math.sqrt(0.5) * hanning_q17(16).sum() / 8 + 2 * math.sqrt(0.5)) + 1
-    index = int(np.flatnonzero(points0.range_index == 150)[0])
-    assert 2000 < expected < 65535
-    assert abs(float(points0.peak_value[index]) - expected) <= rounding + 1e-3 * expected
+    rounding = AZIMUTH_HWA_GAIN * n_azimuth * (math.sqrt(0.5) * hanning_q17(16).sum() / 16 + 2 * math.sqrt(0.5)) + 1
+    index = int(np.flatnonzero(points.range_index == 150)[0])
+    assert 100 < expected < 32767
+    assert abs(float(points.peak_value[index]) - expected) <= rounding + 1e-3 * expected
+
+
+def test_sdk2_detection_matrix_is_the_hwa_log2_sum_in_q9():
+    """SDK 2.x detection matrix of a Doppler spectrum with the same magnitude |X| on every one of
+    N = 12 antennas: the Doppler paramset's log2 of its 24-bit word 2^8 |X| in Q11, summed over the
+    antennas by a 16-point FFT with every stage halved, srcScale 2 and dstScale 8:
+    D = floor(12 floor(2048 log2(256 |X|)) / 64) = 384 (log2|X| + 8) to a count; a zero spectrum
+    gives 0, and |X| = 2^k gives exactly 384 (k + 8)."""
+    from sionnafmcw.ti.oob import detection_matrix
+    magnitudes = np.array([0.0, 1.0, 3.0, 17.5, 1000.0, 2.0 ** 12])
+    phases = np.array([1, 1j, -1, -1j] * 3)                 # on the I/Q axes: exact words
+    spectrum = magnitudes[:, None, None] * phases[None, None, :]
+    det = detection_matrix(spectrum, 2)[:, 0].astype(np.int64)
+    expected = [0] + [int(12 * math.floor(2048 * math.log2(256 * m)) // 64) for m in magnitudes[1:]]
+    assert det.tolist() == expected
+    assert det[1] == 384 * 8 and det[-1] == 384 * (12 + 8)
+    assert np.all(np.abs(det[1:] - 384 * (np.log2(magnitudes[1:]) + 8)) <= 1)
+
+
+def test_radhar_cfar_line_compares_with_half_the_noise_mean():
+    """RadHAR's cfarCfg 0 2 8 4 4 0 4000 (CASO, 8 noise cells a side, divShift 4) compares a cell
+    with half its noise cells' mean plus 4000 in the Q9 matrix D = 384 (mean log2|X| + 8): a
+    detection needs mean log2|X| > (noise mean log2|X|) / 2 + 6.42. With TI's divShift 3 the same
+    window gives the mean itself, and the log2 offset of 8 cancels. Checked on the heat map of a
+    noise-only frame: no cell passes (noise alone is 2^6.4 below the threshold), and a reflector of
+    0.1 m^2 at 2.5 m passes where its cell is above the rule's level."""
+    radar, processing = setup(2)
+    radhar = processing_from_cfg(RADHAR_TEXT)
+    gui = radhar.gui_monitor.__class__(1, False, False, False, True, False)
+    radhar = radhar.replace(gui_monitor=gui)
+    assert (radhar.cfar_range.averaging, radhar.cfar_range.window, radhar.cfar_range.divide_shift) == (2, 8, 4)
+    quiet = one_target(radar, radhar, ranges=2.5, radial_velocities=0.0, azimuths=0.0, rcs=0.0)
+    assert quiet.num_points == 0
+    det = quiet.range_doppler_heatmap.astype(np.int64)
+    mean_log2 = det[40:200].mean() / 384 - 8
+    assert 2.0 < mean_log2 < 5.0                        # the receiver noise, ~16 int16 counts rms
+    loud = one_target(radar, radhar, ranges=2.5, radial_velocities=0.0, azimuths=0.0, rcs=0.1)
+    det = loud.range_doppler_heatmap.astype(np.int64)
+    r = int(np.argmax(det[:, 0]))
+    assert det[r, 0] / 384 - 8 > mean_log2 / 2 + 4000 / 384 - 8 / 2
+    assert np.any(loud.range_index == r)
 
 
 def test_snr_side_info_is_the_radar_equation_in_the_sdks_log2_units():
@@ -182,8 +225,8 @@ def test_snr_side_info_is_the_radar_equation_in_the_sdks_log2_units():
 def test_raising_the_threshold_removes_the_point_as_the_cfar_rule_says(sdk):
     """A detection survives while D > noise + T: with the threshold one count below D - noise the
     point is there, at D - noise it is gone (noise from the heat map with the .cfg's window, guard,
-    shift and averaging, written out here: SDK 2.x's HWA averages noiseWin/2 cells a side, SDK 3.x's
-    DSP noiseWin; SDK 3.x's threshold in dB: T = dB * 256/6 * N/N')."""
+    shift and averaging, written out here: noiseWin cells a side (SDK 2.x's HWA fields count pairs
+    of cells); SDK 3.x's threshold in dB: T = dB * 256/6 * N/N')."""
     radar, processing = setup(sdk)
     gui = processing.gui_monitor.__class__(1, False, False, False, True, False)
     processing = processing.replace(gui_monitor=gui)
@@ -194,7 +237,7 @@ def test_raising_the_threshold_removes_the_point_as_the_cfar_rule_says(sdk):
     d = int(base.doppler_index[0]) % det.shape[1]
     cfg = processing.cfar_range
     column = det[:, d]
-    win = cfg.window // 2 if sdk == 2 else cfg.window
+    win = cfg.window                    # both generations: noiseWin cells a side
     left = column[r - cfg.guard - win:r - cfg.guard].sum()
     right = column[r + cfg.guard + 1:r + cfg.guard + win + 1].sum()
     side = {0: left + right, 1: max(left, right), 2: min(left, right)}[cfg.averaging]
@@ -514,3 +557,18 @@ def test_detect_refuses_a_cube_of_another_radar():
     radar, processing = setup(3)
     with pytest.raises(OobError, match=r"does not match the radar's \[chirp, tx, rx, sample\]"):
         detect(np.zeros((16, 3, 4, 128), np.complex64), radar, processing)
+
+
+def test_sdk2_angle_inputs_follow_the_demos_integer_rules():
+    """SDK 2.x: the channel coefficients multiply in Q15 with (x c + 2^14) >> 15 (so 0.5 halves
+    rounding half up, -1 + 0j negates with the -32768 coefficient), saturated; then the TDM Doppler
+    rotation is computed in float and cast to int16 (truncated to zero)."""
+    from sionnafmcw.ti.oob import _phase_q15_sdk2, _rotate_sdk2
+    x = np.array([3 + 5j, -3 - 5j, 32767 + 0j, -7 + 1j])
+    half = _phase_q15_sdk2(x, np.full(4, 0.5 + 0j))
+    np.testing.assert_array_equal(half, np.floor((x.real + 1) / 2) + 1j * np.floor((x.imag + 1) / 2))
+    negated = _phase_q15_sdk2(x, np.full(4, -1.0 + 0j))
+    np.testing.assert_array_equal(negated, np.clip(-x.real, -32768, 32767) + 1j * np.clip(-x.imag, -32768, 32767))
+    rotated = _rotate_sdk2(np.array([10 + 0j, 10 + 0j]), np.exp(-1j * np.array([0.3, -2.0])))
+    exact = 10 * np.exp(-1j * np.array([0.3, -2.0]))
+    np.testing.assert_array_equal(rotated, np.trunc(exact.real) + 1j * np.trunc(exact.imag))

@@ -47,9 +47,12 @@ class AdcScale:
         Receiver gain :math:`G` from the antenna port to the ADC (dB); default 30 dB, the
         ``rxGain`` of the TI presets' ``profileCfg``.
     adc_full_scale_dbm : float
-        :math:`P_{FS}` (dBm): power at the ADC input of a full-scale complex tone. Default 0 dBm
-        (an assumption: TI publishes no single figure); with the defaults the receiver noise of the
-        TI presets (-92 dBm per sample at 5.2 Msps, 15 dB noise figure) is about 27 counts rms.
+        :math:`P_{FS}` (dBm): power at the ADC input of a full-scale complex tone. Default 0 dBm:
+        TI publishes no ADC full scale, but gives the IWR1443's in-band 1-dB compression at the
+        receiver input as -23, -35 and -47 dBm at 24, 36 and 48 dB gain (TI E2E forum, "IWR1443
+        RF questions"), i.e. +1 dBm after the gain, where the chain's swing ends: this default
+        within about 1 dB. With the defaults the receiver noise of the TI presets (-92 dBm per
+        sample at 5.2 Msps, 15 dB noise figure) is about 27 counts rms.
     """
 
     rx_gain_db: float = 30.0

@@ -20,10 +20,10 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
    virtual antenna :math:`i = q N_{rx} + n` is Rx :math:`n` of the chirp in slot :math:`q`.
 2. **Range FFT** of :math:`N_r = 2^{\lceil\log_2 N_s\rceil}` points with the demo's Blackman
    window (``MmwDemo_genWindow``: :math:`w_n = 0.42 - 0.5\cos\phi n + 0.08\cos 2\phi n`,
-   :math:`\phi = 2\pi/(N_s-1)`, in Q17, saturated below 1) and the HWA's scaling of the first two
-   butterfly stages (``butterflyScaling 0x3``: the sum divided by 4), rounded and saturated to
-   ``int16``. (SDK 3.x runs its range FFT on the accelerator too; its scaling was not read, the
-   xWR14xx one is used.)
+   :math:`\phi = 2\pi/(N_s-1)`, in Q17, saturated below 1) and the HWA's scaling
+   (``srcScale 8``, ``dstScale 0``, ``butterflyScaling 0x3``: the sum divided by 4), rounded and
+   saturated to ``int16``. (SDK 3.x runs its range FFT on the accelerator too; its scaling was not
+   read, the xWR14xx one is used.)
 3. **DC range calibration** (``calibDcRangeSig``): the mean over the first ``numAvg`` chirps of
    the run of range bins ``negBin..posBin`` per virtual antenna is subtracted from every chirp
    (:func:`run_point_clouds` learns it from the run's first frames as the device does after
@@ -33,16 +33,25 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 5. **Doppler FFT** of :math:`N_d = 2^{\lceil\log_2 L\rceil}` points over the :math:`L` chirps of
    each virtual antenna with the demo's Hanning window (Q17, :math:`\phi = 2\pi/(L-1)`; SDK 3.x:
    rectangular at :math:`L \le 4`) and every butterfly stage but the first scaled
-   (``(dopplerFftSize-1) >> 1``: the sum divided by :math:`N_d/2`), rounded, saturated.
+   (``(dopplerFftSize-1) >> 1``; ``srcScale 0``, ``dstScale 8``: the sum divided by
+   :math:`N_d/2`), rounded, saturated.
 6. **Detection matrix** (``uint16``, Doppler unshifted), :math:`N` virtual antennas,
    :math:`N' = 2^{\lceil\log_2 N\rceil}`:
-   SDK 2.x (HWA): :math:`D = \lfloor \sum_n \lfloor 2^9 \log_2|X_n| \rfloor / N' \rfloor`
-   (log2 Q9, the unit of the 14xx ``thresholdScale``);
+   SDK 2.x (HWA, ``HWAutil_configDopplerFFT``): the Doppler paramset writes the log2-magnitude of
+   its 24-bit word, :math:`v_n = \lfloor 2^{11}\log_2(2^8|X_n|)\rfloor` (Q11), and a second
+   paramset sums them (a :math:`N'`-point FFT's DC bin, all stages halved, ``srcScale 2``,
+   ``dstScale 8``): :math:`D = \lfloor \sum_n v_n / (4N')\rfloor
+   \approx 2^9 \tfrac{N}{N'} (\overline{\log_2|X|} + 8)`, log2 in Q9 (the unit TI gives for the
+   14xx ``thresholdScale``: :math:`T = 512\,T_{dB}/6`);
    SDK 3.x (DSP, ``mmwavelib_log2Abs16``): :math:`|X| \approx \max(|I|,|Q|) + \tfrac38\min(|I|,|Q|)`,
    :math:`D = \sum_n \lfloor 2^8 \log_2|X_n| \rfloor \gg \log_2 N'` (log2 Q8).
 7. **CFAR** (``cfarCfg``) on :math:`D`: for the cell under test the noise sums :math:`S_L, S_R`
-   of the cells each side beyond ``guardLen`` guard cells (SDK 2.x's HWA: ``noiseWin >> 1`` a side,
-   ``HWAutil_configCFAR``; SDK 3.x's DSP: ``noiseWin`` a side); CA :math:`(S_L+S_R) \gg s`,
+   of the ``noiseWin`` cells each side beyond ``guardLen`` guard cells (SDK 3.x's DSP; SDK 2.x's
+   HWA is programmed with ``noiseWin >> 1`` in its noise-sample fields, ``HWAutil_configCFAR``,
+   which count pairs of cells: TI's own HWA code averages :math:`N` cells by programming
+   :math:`N/2` on one side and dividing by :math:`2^{\log_2 N}`, and the same ``cfarCfg`` values,
+   ``noiseDivShift`` :math:`\log_2` of one side's cells for CAGO/CASO, serve both the HWA and the
+   DSP devices); CA :math:`(S_L+S_R) \gg s`,
    CAGO :math:`\max(S_L,S_R) \gg s`, CASO :math:`\min(S_L,S_R) \gg s` with :math:`s` =
    ``divShift``; a detection when :math:`D > \text{noise} + T` (:meth:`CfarConfig.threshold_counts`).
    Cyclic: the windows wrap; otherwise, where a side falls off the edge, only the other side is
@@ -57,7 +66,12 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 9. **FOV** (SDK 3.x ``cfarFovCfg``): range bins ``int(min/dr + 0.5)..int(max/dr + 0.5)``, signed
    Doppler bins likewise; ``aoaFovCfg``: :math:`\sin` of the azimuth and elevation limits against
    :math:`W_x, W_z`.
-10. **Angle.** Doppler compensation of the TDM slots, :math:`e^{-j 2\pi q\, d_s/(M N_d)}` for
+10. **Angle.** SDK 2.x keeps only :math:`D` of the Doppler FFT, so it recomputes the complex
+    Doppler spectrum of each detected range bin with every stage scaled (the sum divided by
+    :math:`N_d`, ``HWAutil_configDopplerFFTSingleRangeBin``); SDK 3.x uses the stored one.
+    (SDK 2.x applies the channel coefficients first, :math:`(xc + 2^{14}) \gg 15`, then the
+    Doppler rotation in float cast to int16; SDK 3.x the other way round, both rounded.)
+    Doppler compensation of the TDM slots, :math:`e^{-j 2\pi q\, d_s/(M N_d)}` for
     slot :math:`q` and signed Doppler bin :math:`d_s` (``MmwDemo_dopplerCompensation``); the
     ``compRangeBiasAndRxChanPhase`` coefficients (Q15) multiply the virtual antennas; the azimuth
     row is zero-padded to 64 and transformed, :math:`k` the strongest bin, :math:`k_s` signed,
@@ -75,14 +89,84 @@ xWR18xx/68xx object detection DPC (``objdetdsp``/``objdethwa``, ``cfarcaproc*``,
 12. **Point limit** (SDK 2.x: 100, 64 with elevation; SDK 3.x: 500) and **output**: SDK 2.x
     ``int16`` x, y, z in Q\ :math:`q` with :math:`q = \lceil\log_2(16/\Delta r)\rceil`
     (``main.c``), rounded half away from zero, ``peakVal`` the azimuth FFT's magnitude at the peak
-    times the HWA's output gain (:data:`AZIMUTH_HWA_GAIN`), saturated to ``uint16``; SDK 3.x
+    times the HWA's gain :data:`AZIMUTH_HWA_GAIN` :math:`= 1/8` (``HWAutil_configAngleEstAzimuth``:
+    ``srcScale 8``, no butterfly scaling, ``dstScale 3``), truncated, saturated at
+    :data:`HWA_UNSIGNED_MAX` (``angleEstimationAzimElev``: ``objOut.peakVal = maxVal``); SDK 3.x
     float32 x, y, z, v, SNR and noise in 0.1 dB:
     noise :math:`= \lfloor 60\,\bar n/256 \rfloor`, SNR :math:`= \lfloor 60 D/256 \rfloor -` noise
     (:math:`\bar n` the range CFAR's noise estimate). For SDK 2.x the same two figures are computed
-    from the log2 Q9 matrix (6 dB per unit of :math:`\log_2`), though the device sends neither.
+    from the log2 Q9 matrix (6 dB per unit of the mean :math:`\log_2`, the noise as the mean of the
+    noise cells, in dB of the int16 Doppler spectrum), though the device sends neither.
 
-Not modelled: the xWR18xx SDK 3.x demo's CFAR on the accelerator (``noiseWin >> 1`` cells a side,
-the cyclic flag honoured; the DSP rules above are used for every SDK 3.x device), SDK 2.x/3.x
+The HWA's scaling (xWR14xx, SDK 1.x/2.x)
+-----------------------------------------
+The accelerator computes in 24-bit words. Its input formatter places a 16-bit sample shifted left
+by :math:`8 - \mathrm{srcScale}` bits (``srcScale 0``: in the upper two bytes, as TI's HWA
+support states), each halved butterfly stage divides by 2, and the output formatter writes a
+16-bit word shifted right by ``dstScale`` bits, saturated. This is the only reading under which
+every paramset of the demo is free of overflow and gives the documented units: range FFT
+:math:`2^0 \cdot 4^{-1} \cdot 2^0` (the ADC words fill the lower 16 bits, the 256-point FFT grows
+~25 times at most), Doppler FFT :math:`2^8 (N_d/2)^{-1} 2^{-8}`, the log2 sum
+:math:`2^6 N'^{-1} 2^{-8}` on Q11 log2 (TI's documented log2 output) giving the Q9 matrix TI states
+for the 14xx threshold, CFAR ``srcScale 8`` (the threshold added in the matrix's own units), and
+the azimuth FFT :math:`2^0 \cdot 8 \cdot 2^{-3}`, ``dstScale 3`` taking back the 3 bits of the
+8-element sum so a full-scale int16 input just fits the output. (Read the other way round,
+:math:`2^{\mathrm{srcScale}}` in and :math:`2^{\mathrm{dstScale}-8}` out, the azimuth paramset
+would overflow its 24-bit word for any input above 4096 and the matrix would be Q13.)
+On the IWR1443 (errata, ES1.0-ES3.0) the output formatter saturates unsigned 16-bit words as
+signed ones: ``peakVal`` and :math:`D` saturate at 32767.
+
+The log2-magnitude unit sits in the core, before the output formatter: it takes the log2 of the
+24-bit word, which for the Doppler paramset (``srcScale 0``) is :math:`2^8` times the int16
+spectrum, hence the offset of 8 in :math:`D`. Its internal format is not documented (the
+16-bit output is Q11); the offset cancels wherever ``divShift`` is the log2 of the cells averaged,
+and decides the detection floor where it is not (RadHAR's line, below).
+
+Sources: the SDK 2.1 xWR14xx demo's parameter sets (``config_hwa_util.c``: ``HWAutil_configRangeFFT``,
+``HWAutil_configDopplerFFT``, ``HWAutil_configDopplerFFTSingleRangeBin``, ``HWAutil_configCFAR``,
+``HWAutil_configAngleEstAzimuth``) and their use (``data_path.c``, ``main.c``:
+``MmwDemo_processAngle``; ``post_processing.c``: ``angleEstimationAzimElev``,
+``MmwDemo_dopplerComp``); TI's E2E answers "AWR6843: HWA complex multiplication - magnitude squared
+mode" (``srcScale 0`` puts 16-bit data in the upper two bytes) and "IWR1443BOOST: CFAR threshold
+format clarification" (14xx threshold: log2 in Q9, :math:`T = 512\,T_{dB}/6`; HWA log-mode
+threshold added to the noise average); TI's visualizer writing 9 dB as ``cfarCfg ... 768`` for
+RadHAR's profile (SDK 1.2, ``1443_3d_original.cfg`` of the TI ROS driver); the IWR1443 errata
+(SWRZ074, output formatter saturation); TI's AWR2944 Doppler DPU averaging :math:`N` cells with
+``numNoiseSamplesRight = N/2`` and ``nAvgDivFactor`` :math:`\log_2 N` (the CFAR noise fields count
+pairs of cells).
+
+The scale chain end to end
+--------------------------
+From watts at the receiver to ``peakVal``, for RadHAR's ``.cfg`` (:math:`N_s = 240`,
+:math:`N_r = 256`, :math:`L = N_d = 16`, :math:`N = 12` virtual antennas, 8 of them in azimuth,
+:math:`N' = 16`):
+
+* A tone of amplitude :math:`a` (:math:`\sqrt{\mathrm W}`) at the receiver input becomes
+  :math:`A = c\,a` ADC words, :math:`c = 10^{G/20}(2^{15}-1)/\sqrt{P_{FS}}`
+  (:mod:`sionnafmcw.receiver.adc`; :math:`G` = 30 dB, :math:`P_{FS}` = 0 dBm: the receiver noise,
+  -92.1 dBm at the input at 4.884 Msps and 15 dB noise figure, is :math:`\sigma` = 25.8 words rms).
+* Range FFT: :math:`A \sum w_r / 4 = 25.1\,A` at the tone's bin (Blackman, :math:`\sum w_r = 100.4`);
+  noise :math:`\sigma\sqrt{\sum w_r^2}/4 = 2.13\,\sigma`.
+* Doppler FFT: :math:`\times \sum w_d/(N_d/2) = 0.94` (Hanning, :math:`\sum w_d = 7.5`), noise
+  :math:`\times\sqrt{\sum w_d^2}/8 = 0.30`: :math:`|X| = 23.5\,A`, noise :math:`0.63\,\sigma`
+  = 16.3 words rms, whose :math:`\log_2` has the mean :math:`\log_2 16.3 - \gamma/(2\ln 2) = 3.6`.
+* Detection matrix: :math:`D = 384\,(\overline{\log_2|X|} + 8)` (Q9 times :math:`N/N'` = 0.75).
+* CFAR (RadHAR: ``cfarCfg 0 2 8 4 4 0 4000``, CASO): the smaller sum of 8 cells a side, shifted
+  right by 4, i.e. half their mean :math:`\bar D_n`: a cell is a detection when
+  :math:`D > \bar D_n/2 + 4000`, i.e.
+  :math:`\overline{\log_2|X|} > \overline{\log_2|X_n|}/2 + 6.42`: with the noise above,
+  :math:`|X| > 2^{8.2} \approx 300` (25 dB over the noise rms; noise alone never passes).
+  (The offset 8 cancels when ``divShift`` is the log2 of the cells summed, as in TI's profiles.)
+* peakVal: the single-bin Doppler spectrum is :math:`X/2` (all stages scaled), the azimuth FFT
+  sums the 8 azimuth antennas and :math:`\times 1/8`: :math:`\mathrm{peakVal} \approx |X|/2` for a
+  reflector whose azimuth falls on an angle bin: ~150 at the threshold, :math:`11.8\,A` in general.
+  RadHAR's recordings (IWR1443, this ``.cfg``) have peakVal 5th/50th/95th percentiles of
+  145/463/1122 for moving points at 1.5-3.2 m and 153/922/1885 over all points
+  (``validation/ti_sdk2_scale.py``): the floor where this chain puts it; and none of its 78812
+  frames has a point beyond 6 m, behind the walls, where noise alone would have to make it.
+
+Not modelled: the xWR18xx SDK 3.x demo's CFAR on the accelerator (the cyclic flag honoured; the
+DSP rules above are used for every SDK 3.x device), SDK 2.x/3.x
 xWR16xx syntax (8-value ``cfarCfg``), advanced frames and subframes,
 ``extendedMaxVelocity``, the HWA's internal 24-bit rounding inside the FFT stages (each FFT is
 computed in double precision and rounded once at its output), the quantised chirp slope of the
@@ -110,16 +194,25 @@ ANGLE_FFT_SIZE = 64
 PLATFORMS = {"IWR1443": 0xA1443, "AWR1843": 0xA1843, "IWR6843": 0xA6843}
 
 _Q17 = 1 << 17
-#: SDK 2.x: the HWA's azimuth FFT gain. An HWA FFT paramset scales by
-#: :math:`2^{\mathrm{srcScale} + \mathrm{dstScale} - 8}` over its halved butterfly stages (the rule
-#: that gives the range FFT :math:`1/4` with srcScale 8, dstScale 0, ``butterflyScaling 0x3``, the
-#: Doppler FFT :math:`1/(N_d/2)` with 0, 8, all stages but one, and the log2 sum Q9 from the log2
-#: Q7 magnitudes with 2, 8); the azimuth FFT has srcScale 8, dstScale 3, no scaling: 8. The rule is
-#: inferred from the demo's parameter sets, not read in the HWA's reference manual; with it and the
-#: ADC scale of :mod:`sionnafmcw.receiver.adc`, a reflector that passes RadHAR's ``cfarCfg``
-#: threshold of 4000 has a ``peakVal`` near the uint16 limit, while RadHAR's recordings (same
-#: ``.cfg``, an SDK 1.x build for ES1 silicon) have a median ``peakVal`` of about 1000.
-AZIMUTH_HWA_GAIN = 8.0
+
+# ---------------------------------------------------------------------------------------- xWR14xx HWA
+#: The HWA's input formatter places a 16-bit sample in its 24-bit word shifted left by
+#: :math:`8 - \mathrm{srcScale}` bits (``srcScale 0``: the upper two bytes); the output formatter
+#: writes a 16-bit word shifted right by ``dstScale`` bits (module docstring, "The HWA's scaling").
+HWA_WORD_BITS = 24
+#: ``log2`` of the Doppler paramset's input shift (``srcScale 0``): the HWA's log2-magnitude of the
+#: Doppler FFT is taken of the 24-bit word, :math:`2^8` times the int16 Doppler spectrum, so it is
+#: :math:`\log_2|X| + 8` (:func:`detection_matrix`).
+DOPPLER_LOG2_OFFSET = 8
+#: The HWA's log2-magnitude output: unsigned 16-bit in Q11.
+HWA_LOG2_Q = 11
+#: SDK 2.x: the azimuth FFT's gain from the int16 Doppler samples to ``peakVal``: ``srcScale 8``
+#: (no shift in), no butterfly scaling, ``dstScale 3`` (a right shift by 3 out): :math:`1/8`, the
+#: bit growth of the 8-element azimuth sum taken back out.
+AZIMUTH_HWA_GAIN = 1.0 / 8.0
+#: Largest unsigned 16-bit HWA output on the IWR1443 (ES1.0-ES3.0 errata: the output formatter
+#: saturates unsigned 16-bit words as signed ones), so ``peakVal`` saturates at 32767.
+HWA_UNSIGNED_MAX = 32767
 
 
 class OobError(ValueError):
@@ -208,40 +301,59 @@ def range_fft(adc: np.ndarray) -> np.ndarray:
     return _saturate16(spectrum)
 
 
-def doppler_fft(x: np.ndarray, sdk: int) -> np.ndarray:
-    """Doppler FFT over axis 0 (chirps) of ``[chirp, ...]`` (step 5) -> ``[Doppler bin, ...]``."""
+def doppler_fft(x: np.ndarray, sdk: int, all_stages_scaled: bool = False, rounded: bool = True) -> np.ndarray:
+    """Doppler FFT over axis 0 (chirps) of ``[chirp, ...]`` (step 5) -> ``[Doppler bin, ...]``.
+
+    The detection path scales every butterfly stage but the first (the sum divided by
+    :math:`N_d/2`); ``all_stages_scaled`` scales all of them (:math:`N_d`), as the SDK 2.x
+    single-range-bin Doppler FFT that feeds the angle estimation (step 10). ``rounded``: the
+    int16 output; else the spectrum in the same units before the output's rounding (what the
+    HWA's log2-magnitude sees, to :math:`2^{-8}` of an int16 step)."""
     n = x.shape[0]
     size = _next_pow2(n)
     window = np.ones(n) if (sdk == 3 and n <= 4) or n < 2 else hanning_q17(n)
     shape = (n,) + (1,) * (x.ndim - 1)
-    spectrum = np.fft.fft(x * window.reshape(shape), n=size, axis=0) / max(size / 2, 1)
-    return _saturate16(spectrum)
+    divisor = size if all_stages_scaled else max(size / 2, 1)
+    spectrum = np.fft.fft(x * window.reshape(shape), n=size, axis=0) / divisor
+    return _saturate16(spectrum) if rounded else spectrum
 
 
 def detection_matrix(spectrum: np.ndarray, sdk: int) -> np.ndarray:
-    """Detection matrix ``[range, Doppler]`` (uint16) of ``[range, Doppler, virtual]`` (step 6)."""
+    r"""Detection matrix ``[range, Doppler]`` (uint16) of the Doppler spectrum
+    ``[range, Doppler, virtual]`` in int16 units (step 6): SDK 3.x the int16 words, SDK 2.x the
+    spectrum before the output's rounding (:func:`doppler_fft` with ``rounded=False``).
+
+    SDK 2.x (HWA): per antenna the Doppler paramset's log2-magnitude of its 24-bit word
+    :math:`W_n = 2^8 X_n` (I and Q rounded, saturated at :math:`2^{23}`),
+    :math:`v_n = \lfloor 2^{11}\log_2|W_n|\rfloor` (Q11; 0 where :math:`|W_n| < 1`), summed by a
+    :math:`N'`-point FFT's DC bin with every stage halved, ``srcScale 2`` (:math:`\times 2^6`) and
+    ``dstScale 8`` (:math:`\div 2^8`): :math:`D = \lfloor \sum_n v_n / (4N') \rfloor
+    = 2^9\,\tfrac{N}{N'}\,(\overline{\log_2|X|} + 8)` in Q9.
+    SDK 3.x (DSP): :math:`D = \sum_n \lfloor 2^8\log_2(\max + \tfrac38\min)\rfloor \gg \log_2 N'`."""
     n = spectrum.shape[-1]
     shift = math.ceil(math.log2(n)) if n > 1 else 0
     i, q = np.abs(spectrum.real), np.abs(spectrum.imag)
     if sdk == 2:
-        magnitude = np.hypot(i, q)
-        log2 = np.floor(512.0 * np.log2(np.maximum(magnitude, 1.0)))
-        total = np.floor(log2.sum(axis=-1) / (1 << shift))
-    else:
-        magnitude = np.maximum(i, q) + 0.375 * np.minimum(i, q)
-        log2 = np.floor(256.0 * np.log2(np.maximum(magnitude, 1.0)))
-        total = np.floor(log2.sum(axis=-1) / (1 << shift))
+        top = float(1 << (HWA_WORD_BITS - 1))
+        scale = float(1 << DOPPLER_LOG2_OFFSET)
+        word = np.hypot(np.minimum(np.rint(i * scale), top), np.minimum(np.rint(q * scale), top))
+        log2 = np.floor(float(1 << HWA_LOG2_Q) * np.log2(np.maximum(word, 1.0)))
+        total = np.floor(log2.sum(axis=-1) / (4 * (1 << shift)))
+        return np.clip(total, 0, HWA_UNSIGNED_MAX).astype(np.uint16)
+    magnitude = np.maximum(i, q) + 0.375 * np.minimum(i, q)
+    log2 = np.floor(256.0 * np.log2(np.maximum(magnitude, 1.0)))
+    total = np.floor(log2.sum(axis=-1) / (1 << shift))
     return np.clip(total, 0, 65535).astype(np.uint16)
 
 
 # ---------------------------------------------------------------------------------------- CFAR
 def cfar(values: np.ndarray, config, sdk: int, num_virtual: int, cyclic: bool | None = None):
     """CA/CAGO/CASO CFAR along axis 0 of ``values`` (step 7): ``(hits, noise estimate)``, both the
-    shape of ``values``. SDK 2.x programs the HWA with ``noiseWin >> 1`` cells on each side
-    (``HWAutil_configCFAR``), SDK 3.x's DSP with ``noiseWin`` cells on each side."""
+    shape of ``values``: ``noiseWin`` cells on each side (SDK 3.x's DSP; SDK 2.x's HWA gets
+    ``noiseWin >> 1`` in its noise-sample fields, which count pairs of cells, module docstring)."""
     x = np.asarray(values, np.int64)
     n = x.shape[0]
-    win = config.window >> 1 if sdk == 2 else config.window
+    win = 2 * (config.window >> 1) if sdk == 2 else config.window
     guard, shift = config.guard, config.divide_shift
     cyclic = config.cyclic if cyclic is None else cyclic
     if 2 * (win + guard) >= n:
@@ -316,6 +428,21 @@ def _adc_codes(cube: np.ndarray, radar) -> np.ndarray:
     return _saturate16(fired.astype(np.complex128) * scale)
 
 
+def _phase_q15_sdk2(samples: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
+    r"""SDK 2.x ``MmwDemo_rxChanPhaseBiasCompensation``: int16 samples times the Q15 coefficients,
+    :math:`(x c + 2^{14}) \gg 15` per I and Q, saturated to int16."""
+    product = samples * np.round(coefficients * 32768.0)
+    re = np.clip(np.floor((product.real + 0x4000) / 32768.0), -32768, 32767)
+    im = np.clip(np.floor((product.imag + 0x4000) / 32768.0), -32768, 32767)
+    return re + 1j * im
+
+
+def _rotate_sdk2(samples: np.ndarray, rotation: np.ndarray) -> np.ndarray:
+    """SDK 2.x ``MmwDemo_dopplerComp``: the rotation in float, cast to int16 (truncated to zero)."""
+    rotated = samples * rotation
+    return np.clip(np.trunc(rotated.real), -32768, 32767) + 1j * np.clip(np.trunc(rotated.imag), -32768, 32767)
+
+
 def dc_range_signature(range_spectra: np.ndarray, processing: TiProcessing) -> np.ndarray | None:
     """The DC range signature the device learns: mean over the chirps of ``range_spectra``
     ``[chirp, slot, rx, range bin]`` (the first ``numAvg`` chirps of the run, at most) of the
@@ -371,9 +498,12 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
     spectra = spectra.reshape(radar.num_chirps, n_virtual, -1)   # virtual i = slot * N + rx
     if processing.clutter_removal:
         spectra = _saturate16(spectra - spectra.mean(axis=0, keepdims=True))
-    doppler = doppler_fft(spectra, sdk)                      # [D, V, R]
-    cube_rdv = np.transpose(doppler, (2, 0, 1))              # [R, D, V]
-    det = detection_matrix(cube_rdv, sdk)                    # [R, D]
+    exact = doppler_fft(spectra, sdk, rounded=False)         # [D, V, R]
+    cube_rdv = np.transpose(_saturate16(exact), (2, 0, 1))   # [R, D, V], the int16 spectrum
+    # SDK 2.x keeps only the log2 magnitudes of the Doppler FFT; the angle estimation re-runs a
+    # single-range-bin Doppler FFT with all stages scaled (``HWAutil_configDopplerFFTSingleRangeBin``)
+    angle_rdv = cube_rdv if sdk != 2 else np.transpose(doppler_fft(spectra, sdk, all_stages_scaled=True), (2, 0, 1))
+    det = detection_matrix(np.transpose(exact, (2, 0, 1)) if sdk == 2 else cube_rdv, sdk)   # [R, D]
     n_range, n_doppler = det.shape
 
     range_step = SPEED_OF_LIGHT * radar.fs / (2 * radar.slope * n_range)
@@ -432,14 +562,17 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
     first = {k: [] for k in ("x", "y", "z", "r", "d", "ds", "peak", "det", "noise")}
     second = {k: [] for k in first}
     for r, d, ds in zip(ranges.tolist(), dopplers.tolist(), signed.tolist()):
-        samples = cube_rdv[r, d] * np.exp(-2j * np.pi * slot * ds / (array.num_tx * n_doppler))
-        samples = _saturate16(_saturate16(samples) * phase)
+        rotation = np.exp(-2j * np.pi * slot * ds / (array.num_tx * n_doppler))
+        if sdk == 2:      # channel phase first, then the TDM rotation (MmwDemo_processAngle)
+            samples = _rotate_sdk2(_phase_q15_sdk2(angle_rdv[r, d], phase), rotation)
+        else:
+            samples = _saturate16(_saturate16(angle_rdv[r, d] * rotation) * phase)
         row = np.zeros(ANGLE_FFT_SIZE, complex)
         row[array.azimuth_column] = samples[array.azimuth]
         azimuth = np.fft.fft(row) * (AZIMUTH_HWA_GAIN if sdk == 2 else 1.0)
         magnitude = np.abs(azimuth) if sdk == 2 else np.abs(azimuth) ** 2
         if sdk == 2:
-            magnitude = np.minimum(np.floor(magnitude), 65535)
+            magnitude = np.minimum(np.floor(magnitude), HWA_UNSIGNED_MAX)
         elevation = None
         if array.elevation.size:
             raised = np.zeros(ANGLE_FFT_SIZE, complex)
@@ -488,8 +621,14 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
             v = np.asarray(v, float)
             return (np.trunc(v * grid + np.where(v < 0, -0.5, 0.5)).astype(np.int16) / grid).astype(np.float32)
         x, y, z = quantise(out["x"]), quantise(out["y"]), quantise(out["z"])
-        noise_db = np.round(6.0 * out["noise"] / 512.0, 1).astype(np.float32)
-        snr_db = (np.round(6.0 * out["det"] / 512.0, 1) - noise_db).astype(np.float32)
+        # side info the device does not send: the noise cells' mean (the estimate times 2^divShift
+        # over the cells summed) and the cell above it, 6 dB per unit of the mean log2 magnitude
+        cfg = processing.cfar_range
+        cells = 2 * (cfg.window >> 1) * (2 if cfg.averaging == 0 else 1)
+        noise_mean = out["noise"] * float(1 << cfg.divide_shift) / cells
+        per_unit = 6.0 / (512.0 * n_virtual / (1 << math.ceil(math.log2(n_virtual))))   # dB per Q9 count
+        noise_db = np.round(per_unit * noise_mean - 6.0 * DOPPLER_LOG2_OFFSET, 1).astype(np.float32)
+        snr_db = np.round(per_unit * (out["det"] - noise_mean), 1).astype(np.float32)
     else:
         x, y, z = (np.asarray(out[k], np.float32) for k in ("x", "y", "z"))
         noise_tenth = np.floor(60.0 * out["noise"] / 256.0)
@@ -499,7 +638,7 @@ def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time
     gui = processing.gui_monitor
     azimuth_map = None
     if gui.range_azimuth_heatmap:
-        azimuth_map = cube_rdv[:, 0, :][:, array.azimuth].astype(np.complex64)
+        azimuth_map = angle_rdv[:, 0, :][:, array.azimuth].astype(np.complex64)   # SDK 2.x: the single-bin FFT
     return DetectedPoints(
         frame_number=int(frame_number), time=float(time), sdk=sdk, platform=_platform(radar, sdk),
         x=x, y=y, z=z,

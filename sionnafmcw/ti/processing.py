@@ -96,7 +96,8 @@ class CfarConfig:
     2 CASO (smaller); ``window`` noise cells and ``guard`` guard cells on each side;
     ``divide_shift`` the right shift of the noise sum; ``cyclic`` wrap at the edges;
     ``threshold``: SDK 3.x dB, SDK 1.x/2.x the raw value in the detection matrix's units (log2 in
-    Q9 per antenna average); ``peak_grouping`` (SDK 3.x) keep only local maxima in this direction.
+    Q9 of the antennas' mean times :math:`N/N'`, :func:`sionnafmcw.ti.oob.detection_matrix`);
+    ``peak_grouping`` (SDK 3.x) keep only local maxima in this direction.
     """
 
     direction: int
@@ -116,7 +117,8 @@ class CfarConfig:
         virtual antennas and :math:`N' = 2^{\lceil\log_2 N\rceil}` (the matrix is
         :math:`\sum_n \log_2|X_n|` in Q8 shifted right by :math:`\log_2 N'`, and
         :math:`20\log_{10} 2 \approx 6` dB per unit of :math:`\log_2`), truncated to an integer.
-        SDK 1.x/2.x: the ``.cfg``'s raw value (the UG's :math:`512\,T_{dB}/6\cdot N/N'`).
+        SDK 1.x/2.x: the ``.cfg``'s raw value, added by the accelerator's CFAR in the matrix's
+        own units (log2 Q9; TI: :math:`T = 512\,T_{dB}/6`, the visualizer's 768 for 9 dB).
         """
         if sdk == 2:
             return int(self.threshold)
