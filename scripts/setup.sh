@@ -54,15 +54,22 @@ fi
 "$VENV/bin/python" -m pip install -q --upgrade pip
 # PyTorch (sionnafmcw.torch) as its CPU build: PyPI's Linux wheel (~555 MB) is the CUDA build and pulls
 # ~2.2 GB of nvidia-* wheels and triton (~0.25 GB), of no use without a GPU; without them it does not
-# import (libcudnn.so.9 missing). The CPU build comes from PyTorch's own index (TORCH_INDEX; a local
-# folder of wheels in pip's find-links serves too). Its pure-Python dependencies come first from the
-# usual indexes, then torch alone from the CPU index, so no other index can hand pip the CUDA build.
-TORCH_INDEX=${TORCH_INDEX:-https://download.pytorch.org/whl/cpu}
+# import (libcudnn.so.9 missing). The CPU build (a torch-*+cpu wheel, ~190 MB) is taken from the folder
+# TORCH_WHEELS (default: /opt/wheels, pip's find-links on this project's machines) or from the index
+# TORCH_INDEX (PyTorch's CPU wheel index, see docs/install.md); its pure-Python dependencies come first
+# from the usual indexes, then torch alone, so that no other index can hand pip the CUDA build. With
+# neither, PyPI's CUDA build is installed (correct on a CPU too, only larger).
+TORCH_WHEELS=${TORCH_WHEELS:-/opt/wheels}
 if ! "$VENV/bin/python" -c "import torch" >/dev/null 2>&1; then
   "$VENV/bin/python" -m pip install -q filelock "typing-extensions>=4.10" "sympy>=1.13.3" "networkx>=2.5.1" jinja2 \
     "fsspec>=0.8.5" "setuptools>=77"
-  PIP_EXTRA_INDEX_URL="$TORCH_INDEX" "$VENV/bin/python" -m pip install -q --no-deps --index-url "$TORCH_INDEX" \
-    "torch>=2.4"
+  if compgen -G "$TORCH_WHEELS/torch-*+cpu-*.whl" >/dev/null; then
+    "$VENV/bin/python" -m pip install -q --no-deps --no-index --find-links "$TORCH_WHEELS" "torch>=2.4"
+  elif [ -n "${TORCH_INDEX:-}" ]; then
+    "$VENV/bin/python" -m pip install -q --no-deps --index-url "$TORCH_INDEX" "torch>=2.4"
+  else
+    echo "setup: no CPU build of PyTorch in $TORCH_WHEELS and no TORCH_INDEX: installing PyPI's CUDA build (~3 GB)"
+  fi
 fi
 "$VENV/bin/python" -m pip install -q -e ".[test,tf,torch,docs]"
 touch "$VENV/.installed"

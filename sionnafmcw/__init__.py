@@ -50,7 +50,7 @@ _LAZY = {
 #: Subpackages and modules reachable as ``sionnafmcw.<name>``, imported on first use.
 _SUBMODULES = (
     "animation", "array", "blender", "cli", "constants", "dataset", "echoes", "engines", "fs", "geometry",
-    "materials", "plots", "processing", "radar", "scenes", "simulation", "sionna_rt", "store", "synthesis", "tf", "ti",
+    "materials", "plots", "processing", "radar", "scenes", "simulation", "sionna_rt", "store", "synthesis", "tf", "ti", "torch",
     "validation",
 )
 

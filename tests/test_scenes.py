@@ -98,7 +98,7 @@ def test_subpackages_are_attributes_of_the_package(tmp_path):
     code = ("import sys, sionnafmcw as sf\n"
             f"path = sf.scenes.build('moving_plate', {str(tmp_path / 'plate')!r}, num_frames=2)\n"
             "print(sf.load_animation(path).num_frames, sf.RadarConfig.__name__)\n"
-            "for name in ('dataset', 'validation', 'tf', 'processing', 'plots', 'engines', 'io'):\n"
+            "for name in ('dataset', 'validation', 'tf', 'processing', 'plots', 'engines', 'ti'):\n"
             "    assert name in dir(sf), name\n"
             "print(callable(sf.engines.names), callable(sf.processing.range_doppler_map))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
