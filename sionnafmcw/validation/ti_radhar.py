@@ -9,9 +9,9 @@ recording is described by the same statistics as the real training split
 intensity, height and forward extent.
 
 This is a report, not a fit: nothing here is tuned to the real data, which only stands beside the
-simulated figures. The scene is the builders' default room with one table and two chairs; the
-person 2.5 m in front of the sensor (RadHAR: 1.5-3 m), the sensor 1 m above the floor (not
-published).
+simulated figures. The scenes are the ``radhar`` builder's five classes in its default room with
+one table and two chairs, the person 2 m in front of the sensor (RadHAR: 1.5-3 m), the sensor
+level, 1 m above the floor (not published).
 
     python validation/ti_radhar.py --real ../shared/realdata/radhar/train --out out/ti_radhar [--frames 30]
 
@@ -29,13 +29,14 @@ from pathlib import Path
 
 #: RadHAR's frame rate (its .cfg's ``frameCfg``: 33.333 ms).
 FPS = 30.0
-#: Simulated activity -> (scenario, builder parameters, RadHAR class it stands beside).
-SCENES = {
-    "jump": ("jump", {"radar_distance": 2.5, "radar_height": 1.0, "radar_target_height": 1.0, "room": True, "room_margin": 1.5,
-                      "tables": 1, "chairs": 2}, "jump"),
-    "walk": ("straight_walk", {"start_range": 3.0, "direction": "towards", "radar_height": 1.0, "room": True},
-             "walk"),
-}
+#: The furnished room around the person (the ``radhar`` builder's room with one table and two chairs).
+ROOM = {"room": True, "tables": 1, "chairs": 2}
+#: Simulated activity -> (scenario, builder parameters, RadHAR class it stands beside): the ``radhar``
+#: builder's five classes, the person 2 m in front of a level sensor 1 m above the floor.
+SCENES = {name: ("radhar", {"activity": activity, "person_range": 2.0, "radar_height": 1.0, **ROOM}, cls)
+          for name, activity, cls in (("boxing", "boxing", "boxing"), ("jack", "jumping_jacks", "jack"),
+                                      ("jump", "jump", "jump"), ("squats", "squat", "squats"),
+                                      ("walk", "walk", "walk"))}
 
 
 def simulate_activity(name: str, cfg: Path, out: Path, frames: int, seed: int = 0):
