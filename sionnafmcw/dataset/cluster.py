@@ -48,7 +48,10 @@ class HeartbeatDrain(WorkerPlugin):
     future completed when the heartbeat returns or fails); ``teardown``, which ``Worker.close``
     runs before it closes its connection pool, stops the periodic call and waits (at most
     ``timeout`` seconds) for the calls in flight. A heartbeat that itself closes the worker
-    (the scheduler answered that it no longer knows it) is not waited for by its own close.
+    (the scheduler answered that it no longer knows it) is not waited for by its own close; one
+    that gets that answer while another close is under way waits for that close, which then
+    goes on after ``timeout`` (a scheduler that forgot a worker before it closed: not the local
+    cluster's order, which removes a worker when the worker's own stream closes).
     """
 
     name = "sionnafmcw-heartbeat-drain"
