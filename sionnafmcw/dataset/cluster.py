@@ -3,21 +3,22 @@ existing scheduler, and the worker plugin that lets a local cluster close withou
 
 Why a clean close needs help. A Dask worker reports to its scheduler every
 :math:`T_h = 0.5` s (clusters of up to 10 workers) with a ``heartbeat_worker`` request over a
-pooled connection and waits for the answer, which takes the scheduler's round trip
-:math:`t_r`. ``Worker.close`` stops that periodic call but does not wait for a heartbeat
-already sent: a few steps later it closes its connection pool, and a heartbeat still waiting
-for its answer fails with ``CommClosedError: ... ConnectionPool.heartbeat_worker ...: Stream is
-closed``, which the worker logs at ERROR level with a traceback (distributed 2022-2026,
-dask/distributed#7891, unfixed upstream). Nothing is lost (the worker was closing anyway), but a
-user reads a traceback as a failure. With the close's own steps taking :math:`t_c` between
-the last heartbeat that can start and the pool's close, each worker hits it with probability
+pooled connection and waits for the answer, which takes a round trip :math:`t_r` (the
+worker's metrics, the connection, the scheduler's turn on its event loop). ``Worker.close``
+stops that periodic call but does not wait for a heartbeat already sent: a few milliseconds
+later it closes its connection pool, and a heartbeat still waiting for its answer fails with
+``CommClosedError: ... ConnectionPool.heartbeat_worker ...: Stream is closed``, which the
+worker logs at ERROR level with a traceback (a known, open race in Dask distributed). Nothing
+is lost (the worker was closing anyway), but a user reads a traceback as a failure. A
+heartbeat is in flight a fraction of the time, so each closing worker hits it with probability
 
 .. math::
-    p \approx \min\!\left(1,\ \frac{t_r + t_c}{T_h + t_r}\right),
+    p \approx \min\!\left(1,\ \frac{t_r}{T_h}\right),
 
-small on an idle machine (:math:`t_r \sim 1` ms) and large when the scheduler answers slowly:
-a loaded machine, the driver's process (which hosts a local cluster's scheduler) busy with the
-last item's labels and index, first runs that compile kernels. Hiding the log would also hide a
+under 1 % when the scheduler answers in a millisecond, several per cent when the machine is
+short of CPU: other work on it, or, at the end of a local run, the worker processes that have
+already closed spending 1-3 s each in the interpreter's and the native libraries' teardown on
+the same cores as the scheduler and the workers still closing. Hiding the log would also hide a
 scheduler that really is gone, so :class:`HeartbeatDrain` removes the race instead: as the first
 step of every close of a worker (plugin teardown runs before the worker closes its connections,
 whatever asked it to close), it stops the heartbeat and waits for the one in flight to get its
