@@ -7,7 +7,8 @@ r"""A data-set run that succeeds prints no traceback; an item that fails is repo
   next one 10 ms after, so a heartbeat is in flight a fraction
   :math:`0.3 / 0.31 \approx 97\,\%` of the time. Workers of a plain ``LocalCluster`` then log
   the traceback when the cluster closes (the control: the harness reproduces the race);
-  :func:`~sionnafmcw.dataset.generate`'s own cluster closes clean.
+  :func:`~sionnafmcw.dataset.generate`'s own cluster closes clean. A heartbeat that closes
+  its own worker (the scheduler answered "missing") is not waited for by that close.
 * The guide's ``people`` spec (docs/guide/datasets.md: 3 items, walk/wave/fall, ``chairs``,
   4 frames, ``ti-iwr6843isk``) through ``sionnafmcw dataset``, twice on a local cluster and
   twice on a ``dask scheduler`` with two ``dask worker`` processes, the first run of each on an
@@ -114,6 +115,33 @@ def test_local_cluster_closes_without_heartbeat_traceback(tmp_path, capfd):
     assert plugin.answered >= 10, "the workers hardly sent heartbeats: the race was not set up"
     err = capfd.readouterr().err
     assert noise(err) == [], err[-3000:]
+
+
+def test_a_heartbeat_that_closes_its_worker_is_not_waited_for():
+    """The scheduler answers a heartbeat with "missing" (it forgot the worker): the worker closes
+    from inside that heartbeat, and the drain (given 10 s here) must not wait for the heartbeat
+    that is running the close, or the close would take the whole 10 s."""
+    from distributed import Scheduler, Worker
+
+    from sionnafmcw.dataset.cluster import HeartbeatDrain
+
+    async def scenario():
+        async with Scheduler(dashboard_address=":0", port=0) as scheduler:
+            async with Worker(scheduler.address, nthreads=1) as worker:
+                await worker.plugin_add(HeartbeatDrain(timeout=10.0), name=HeartbeatDrain.name)
+                forgot = []
+
+                async def missing(*args, **kwargs):
+                    forgot.append(time.monotonic())
+                    return {"status": "missing"}
+
+                scheduler.handlers["heartbeat_worker"] = missing
+                await asyncio.wait_for(worker.finished(), timeout=30)
+                return time.monotonic() - forgot[0], worker.status.name
+
+    seconds, status = asyncio.run(scenario())
+    assert status == "closed"
+    assert seconds < 5.0, f"the close waited {seconds:.1f} s for the heartbeat that ran it"
 
 
 @pytest.fixture(scope="module")

@@ -29,6 +29,7 @@ longer (the close goes on, and the failed heartbeat is logged as the real fault 
 from __future__ import annotations
 
 import asyncio
+import contextvars
 import logging
 import os
 
@@ -40,6 +41,10 @@ from .index import DatasetError
 #: closing worker 4 s (``Nanny.close``'s 5 s x 0.8) before it kills the process; the drain takes
 #: at most half of that, and a heartbeat answer takes milliseconds on a responsive scheduler.
 DRAIN_TIMEOUT = 2.0
+
+#: The heartbeat (its completion future) whose call this code runs in, if any: a context variable,
+#: so that it follows the call into the tasks the worker's close spawns (``asyncio.gather``).
+_HEARTBEAT: contextvars.ContextVar = contextvars.ContextVar("sionnafmcw_heartbeat", default=None)
 
 
 class HeartbeatDrain(WorkerPlugin):
@@ -61,7 +66,7 @@ class HeartbeatDrain(WorkerPlugin):
         self.timeout = float(timeout)
 
     def setup(self, worker) -> None:
-        self._in_flight: dict = {}  # future -> the asyncio task running that heartbeat
+        self._in_flight: set = set()  # one future per heartbeat in flight, done when it returns or fails
         periodic = worker.periodic_callbacks.get("heartbeat")
         if periodic is None:
             return
@@ -69,11 +74,13 @@ class HeartbeatDrain(WorkerPlugin):
 
         async def tracked_heartbeat():
             done = asyncio.get_running_loop().create_future()
-            in_flight[done] = asyncio.current_task()
+            in_flight.add(done)
+            token = _HEARTBEAT.set(done)
             try:
                 return await beat()
             finally:
-                del in_flight[done]
+                _HEARTBEAT.reset(token)
+                in_flight.discard(done)
                 done.set_result(None)
 
         periodic.callback = tracked_heartbeat
@@ -82,8 +89,8 @@ class HeartbeatDrain(WorkerPlugin):
         periodic = worker.periodic_callbacks.get("heartbeat")
         if periodic is not None:
             periodic.stop()
-        me = asyncio.current_task()
-        pending = [done for done, task in getattr(self, "_in_flight", {}).items() if task is not me]
+        running_me = _HEARTBEAT.get()  # this close was called by that heartbeat: it cannot finish first
+        pending = [done for done in getattr(self, "_in_flight", ()) if done is not running_me]
         if pending:
             await asyncio.wait(pending, timeout=self.timeout)
 
