@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import collections
+import sys
+import warnings
 from pathlib import Path
 
-from .common import UserError
+from .common import PROG, UserError
 
 HELP = "Generate a data set from a specification file."
 EPILOG = """\
@@ -45,8 +47,17 @@ def run(args) -> int:
     except SpecError as err:
         message = str(err)
         raise UserError(message if str(spec_path) in message else f"{args.spec}: {message}") from None
-    index = dataset.generate(spec, Path(args.out), scheduler=args.scheduler, workers=args.workers,
-                             progress=not args.quiet)
+    # A failed item is reported once, one line naming the item and its error: in the summary that
+    # generate prints, or (--quiet, no summary) here; not again as a Python warning with a source line.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", dataset.DatasetWarning)
+        index = dataset.generate(spec, Path(args.out), scheduler=args.scheduler, workers=args.workers,
+                                 progress=not args.quiet)
+    for w in caught:
+        if not issubclass(w.category, dataset.DatasetWarning):
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        elif args.quiet:
+            print(f"{PROG}: {w.message}", file=sys.stderr)
     counts = collections.Counter(str(s) for s in index["status"].values)
     summary = ", ".join(f"{n} {status}" for status, n in sorted(counts.items()))
     print(f"wrote data set {spec.name} to {args.out}: {summary}")

@@ -8,7 +8,8 @@ r"""Data sets: many simulated runs of one scenario with drawn parameters, genera
     index = dataset.open_index("data/plates")      # xarray.Dataset: items, parameters, status, labels
 
 Modules: :mod:`.spec` (the spec format and the reproducible draw of items), :mod:`.generate`
-(items as Dask tasks, resume, failures), :mod:`.index` (folder layout, labels, the index).
+(items as Dask tasks, resume, failures), :mod:`.cluster` (the local cluster or a scheduler's, and a
+local cluster's quiet close), :mod:`.index` (folder layout, labels, the index).
 :mod:`sionnafmcw.tf` streams a generated data set into TensorFlow.
 """
 

@@ -29,7 +29,6 @@ items of :math:`F` frames, per-frame engine + synthesis time :math:`t_f`, per-it
 from __future__ import annotations
 
 import json
-import logging
 import os
 import shutil
 import socket
@@ -263,46 +262,6 @@ def _partial_labels(store: Path, label_object):
         return None
 
 
-def _connect(scheduler, workers, n_tasks, cluster_options):
-    """``(client, close, threads)``: a new LocalCluster, or a client of an existing scheduler.
-
-    ``threads``: CPU threads per item (``simulate``'s ``threads``: :mod:`sionnafmcw.threads`),
-    ``cores // workers`` on a local cluster (so the workers do not oversubscribe the cores), None
-    (the worker machine's cores) on another cluster."""
-    from distributed import Client, LocalCluster
-
-    if scheduler is None:
-        cores = os.cpu_count() or 1
-        n = int(workers) if workers else max(1, min(cores, n_tasks))
-        if n < 1:
-            raise ValueError(f"generate: workers must be >= 1, got {workers}")
-        options = {"n_workers": n, "threads_per_worker": 1, "processes": True, "dashboard_address": ":0",
-                   "silence_logs": logging.ERROR, **(cluster_options or {})}
-        cluster = LocalCluster(**options)
-        client = Client(cluster)
-
-        def close():
-            client.close()
-            cluster.close()
-
-        return client, close, max(1, cores // n)
-    if workers is not None or cluster_options:
-        raise ValueError("generate: workers= and cluster_options= configure the local cluster only; with "
-                         "scheduler= size the cluster behind that scheduler itself")
-    if isinstance(scheduler, Client):
-        return scheduler, (lambda: None), None
-    if isinstance(scheduler, str):
-        try:
-            client = Client(scheduler, timeout="30s")
-        except OSError as exc:
-            raise DatasetError(f"generate: cannot reach the Dask scheduler at {scheduler!r} ({exc}); start it "
-                               "(e.g. `dask scheduler`, `dask worker ADDRESS --nthreads 1`) or pass scheduler=None "
-                               "for a local cluster") from exc
-        return client, client.close, None
-    raise TypeError(f"generate: scheduler must be None, a scheduler address or a distributed.Client, got "
-                    f"{type(scheduler).__name__}")
-
-
 def _summary(spec, records, elapsed) -> str:
     complete = sum(r["status"] == "complete" for r in records)
     failed = [r for r in records if r["status"] == "failed"]
@@ -389,8 +348,10 @@ def _generate_locked(spec, out, items, records, scheduler, workers, progress, re
     summary = "generation interrupted"
     try:
         if todo:
+            from .cluster import connect
+
             _run_on_cluster(spec, out, todo, {r["id"]: r for r in records}, bar,
-                            _connect(scheduler, workers, len(todo), cluster_options), item_threads, retries)
+                            connect(scheduler, workers, len(todo), cluster_options), item_threads, retries)
         summary = _summary(spec, records, time.perf_counter() - t_start)
     finally:
         if bar is not None:
