@@ -671,7 +671,8 @@ class PathEngine(Engine):
         the resolutions; ``rigid``: name -> the frame's rigid velocity (m/s). With the static scene
         cached (``static``), only the frame's own renders (what the moving objects change) and the
         blocked static samples (``removed``, opposite sign). Returns ``(echoes, removed, figures)``."""
-        from .po_render import reflect, render
+        from .bounce_sampling import resolved_bounces
+        from .po_render import render
 
         t0 = time.perf_counter()
         world = self._state.surfaces
@@ -690,12 +691,9 @@ class PathEngine(Engine):
                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc)
             self.last_renders = [*static.po.renders, *renders]
         else:
-            bounce = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
-                            **origin_motion)
-            renders = [bounce]
-            while bounce.depth < depth and bounce.num_samples:
-                bounce = reflect(world, bounce, objects, rot, wavelength)
-                renders.append(bounce)
+            first = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
+                           **origin_motion)
+            renders = resolved_bounces(world, first, objects, rot, wavelength, depth, self.po_samples_across)
             self.last_renders = renders
         echoes = []
         num_samples = 0
