@@ -90,15 +90,53 @@ def resolved_bounces(world, first, objects, rotation, wavelength: float, depth: 
                      group: str = "all") -> list:
     """The renders of bounces 1 to ``depth`` with every exit aperture resolved (module docstring): the
     chains of ``first`` followed, the boundary tubes of the apertures whose bound is not met split and
-    the chains followed again, until every bound holds or :data:`MAX_SPLITS` rounds are done."""
+    their chains followed (the other tubes' chains are kept), until every bound holds or
+    :data:`MAX_SPLITS` rounds are done."""
     renders = follow(world, first, objects, rotation, wavelength, depth, group)
+    if len(renders) < 2:
+        return renders
+    channels = monostatic_channels(renders, wavelength)
     for _ in range(MAX_SPLITS):
-        split, empty = under_resolved(renders, objects, samples_across, wavelength)
+        split, empty = under_resolved(renders, objects, samples_across, wavelength, channels)
         if split.size == 0 and empty.size == 0:
             break
-        first = split_rays(world, renders[0], split, objects, rotation, wavelength, group, empty)
-        renders = follow(world, first, objects, rotation, wavelength, depth, group)
+        new = follow(world, quartered(world, renders[0], split, objects, rotation, wavelength, group, empty),
+                     objects, rotation, wavelength, depth, group)
+        renders, channels = _joined(renders, channels, split, new, monostatic_channels(new, wavelength,
+                                                                                        renders[0].source[:1]))
     return renders
+
+
+def _joined(renders, channels, split, new, new_channels):
+    """The chains of the tubes of ``renders[0]`` not in ``split``, then the chains ``new`` of the quarters:
+    the renders and their channels per bounce."""
+    from dataclasses import replace
+
+    from .po_render import join_first_bounces, join_renders
+
+    keep = np.ones(renders[0].num_samples, dtype=bool)
+    keep[split] = False
+    out, out_channels = [], []
+    previous = 0
+    for d, bounce in enumerate(renders):
+        if d:
+            keep = keep[bounce.parent]
+        kept = bounce.select(keep)
+        if d:   # the parents' indices among the kept samples of the bounce before
+            kept.parent = ranks[bounce.parent[keep]]
+        ranks = np.cumsum(keep) - 1
+        part = [channels[d][keep]]
+        if d < len(new):
+            kept = join_first_bounces(kept, new[0]) if d == 0 else join_renders(kept, new[d], previous)
+            part.append(new_channels[d])
+        previous = int(np.count_nonzero(keep))
+        out.append(kept)
+        out_channels.append(np.concatenate(part))
+    for d in range(len(renders), len(new)):   # the quarters' chains went deeper than any before
+        offset = previous if d == len(renders) else 0
+        out.append(replace(new[d], parent=new[d].parent + offset))
+        out_channels.append(new_channels[d])
+    return out, out_channels
 
 
 def surface_codes(bounce, objects) -> np.ndarray:
@@ -129,14 +167,14 @@ def grid_neighbours(first) -> np.ndarray:
     return np.where(found, index, -1).reshape(4, p).T
 
 
-def monostatic_channels(renders, wavelength: float) -> list:
+def monostatic_channels(renders, wavelength: float, origin=None) -> list:
     r"""Per render, every sample's share :math:`h_i = a_i e^{-j2\pi c\tau_i/\lambda}` ``[P]`` of the channel of
     an isotropic element at the render origin (transmitting and receiving), in-sample factor included
     (:func:`~.po_render.chain_po_gains`): the echo the error bound is measured against."""
     from ..constants import SPEED_OF_LIGHT
     from .po_render import chain_po_gains
 
-    origin = renders[0].source[:1]
+    origin = renders[0].source[:1] if origin is None else origin
     out = []
     for bounce in renders:
         if bounce.num_samples == 0:
@@ -147,7 +185,7 @@ def monostatic_channels(renders, wavelength: float) -> list:
     return out
 
 
-def under_resolved(renders, objects, samples_across: int, wavelength: float) -> np.ndarray:
+def under_resolved(renders, objects, samples_across: int, wavelength: float, channels=None):
     """Indices into ``renders[0]`` of the first-bounce tubes to split: the boundary tubes of every exit
     aperture (bounces 2 and on) whose bound :math:`E_g \le \eta|H|` fails, and their neighbours across
     the outline (module docstring)."""
@@ -156,7 +194,7 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float) -> 
     if len(renders) < 2 or p == 0 or renders[1].num_samples == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
     eta = error_share(samples_across)
-    channels = monostatic_channels(renders, wavelength)
+    channels = monostatic_channels(renders, wavelength) if channels is None else channels
     names, codes = np.unique(np.concatenate([b.samples.labels for b in renders]), return_inverse=True)
     echo = np.abs(np.bincount(codes, np.concatenate(channels).real, names.size)
                   + 1j * np.bincount(codes, np.concatenate(channels).imag, names.size))
@@ -180,7 +218,9 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float) -> 
         differs = other != own[:, None]
         boundary = differs.any(axis=1)
         groups = int(chain.max()) + 1
-        bound = np.bincount(chain, np.abs(channels[d]) * boundary, groups)           # E_g
+        h = channels[d] * boundary
+        band = np.abs(np.bincount(chain, h.real, groups) + 1j * np.bincount(chain, h.imag, groups))
+        bound = 0.5 * band + np.sqrt(np.bincount(chain, np.abs(h) ** 2, groups) / 12.0)     # E_g
         label = np.zeros(groups, dtype=np.int64)
         label[chain] = label_of[d]
         take = boundary & (bound > eta * echo[label])[chain]
@@ -239,15 +279,15 @@ def _inside_earlier(centres, s_az, s_el, neighbours: int = 8) -> np.ndarray:
     return out
 
 
-def split_rays(world, first, index, objects, rotation, wavelength: float, group: str = "all", empty=None):
-    """The first bounce ``first`` with its tubes ``index`` split into four: the rays through the centres of
+def quartered(world, first, index, objects, rotation, wavelength: float, group: str = "all", empty=None):
+    """The quarters of the first bounce ``first``'s tubes ``index`` as a first-bounce render: the rays through the centres of
     the quarters (:math:`\hat{\mathbf u} \pm \Delta_{az}/4 \pm \Delta_{el}/4`, normalised) cast from the
     render origin over ``group``, a hit kept where it is on the tube's own object (visibility as the
     render's), with half the steps and a quarter of the solid angle. ``empty`` ``[K, 2]``: (tube, side)
     pairs (:func:`grid_neighbours`' order) whose neighbouring grid cell holds no tube (its centre ray
     missed the object): that cell is cast in quarters too, for the object of the tube beside it, so that
     an outline is approached from both sides."""
-    from .po_render import _samples, first_bounce, join_first_bounces
+    from .po_render import _samples, first_bounce
 
     index = np.asarray(index, dtype=np.int64)
     keep = np.ones(first.num_samples, dtype=bool)
@@ -286,10 +326,9 @@ def split_rays(world, first, index, objects, rotation, wavelength: float, group:
     origin_motion = None if first.acceleration is None else (first.source_velocity[0], first.source_acceleration[0])
     if first.acceleration is not None and acceleration is None:
         acceleration = np.zeros((hit.size, 3))
-    new = first_bounce(samples, direction, half_az, half_el, origin, first.step, int(d.shape[0]), acceleration,
-                       origin_motion)
-    return join_first_bounces(first.select(keep), new)
+    return first_bounce(samples, direction, half_az, half_el, origin, first.step, int(d.shape[0]), acceleration,
+                        origin_motion)
 
 
 __all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "error_share", "follow", "grid_neighbours",
-           "monostatic_channels", "resolved_bounces", "split_rays", "surface_codes", "under_resolved"]
+           "monostatic_channels", "quartered", "resolved_bounces", "surface_codes", "under_resolved"]

@@ -623,6 +623,27 @@ def first_bounce(samples, direction, step_az, step_el, origin, steps, num_rays, 
     return out
 
 
+def join_renders(a: Render, b: Render, parent_offset: int = 0) -> Render:
+    """The renders ``a`` and ``b`` of one bounce (depth 2 or more) as one: ``a``'s samples, then ``b``'s, whose
+    ``parent`` indices are moved by ``parent_offset`` (the previous bounce joined the same way)."""
+    from dataclasses import fields, replace
+
+    kw = {}
+    for f in fields(Render):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "samples":
+            kw[f.name] = SurfaceSamples(**{n: None if getattr(x, n) is None or getattr(y, n) is None else
+                                           np.concatenate([getattr(x, n), getattr(y, n)])
+                                           for n in x.__dataclass_fields__})
+        elif f.name == "parent":
+            kw[f.name] = np.concatenate([x, y + parent_offset])
+        elif isinstance(x, np.ndarray) and isinstance(y, np.ndarray):
+            kw[f.name] = np.concatenate([x, y])
+        elif f.name == "num_rays":
+            kw[f.name] = x + y
+    return replace(a, **kw)
+
+
 def join_first_bounces(a: Render, b: Render) -> Render:
     """The bounce-1 renders ``a`` and ``b`` (the same origin) as one: ``a``'s samples, then ``b``'s."""
     sa, sb = a.samples, b.samples
@@ -785,5 +806,5 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
 
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject",
            "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "first_bounce", "flat_shaded",
-           "join_first_bounces", "object_box",
+           "join_first_bounces", "join_renders", "object_box",
            "radio_material", "reflect", "render", "scene_objects", "shading_normals"]
