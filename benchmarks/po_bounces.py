@@ -5,9 +5,9 @@
     PYTHONPATH=.:tests python benchmarks/po_bounces.py grid         # defaults against the converged echo
     PYTHONPATH=.:tests python benchmarks/po_bounces.py cost [--frames 13] [--scenes DIR]
 
-Every mode compares **A**, the chains followed at the first bounce's density (the rule switched off:
-``bounce_sampling.MAX_SPLITS = 0``, what the engine did before the rule), with **B**, the engine's
-defaults (:mod:`sionnafmcw.engines.bounce_sampling`), in one process.
+Every mode compares **A**, the chains followed at the first bounce's density (``PathEngine(...,
+po_bounce_rule=False)``, what the engine did before the rule), with **B**, the engine's defaults (the
+rule of :mod:`sionnafmcw.engines.bounce_sampling`), in one process.
 
 * ``issue``: ``car_park`` with the radar at rest (``speed=0``), its first pair of 0.1 m trihedrals 3 m
   ahead and 1.5 m to either side (their aperture axes at the radar's start), the radar at x = 0 ...
@@ -58,22 +58,6 @@ def db(x):
     return 10 * np.log10(x)
 
 
-def rule(on: bool):
-    """The rule on (B, its default) or off (A: the chains at the first bounce's density)."""
-    from sionnafmcw.engines import bounce_sampling
-
-    bounce_sampling.MAX_SPLITS = DEFAULT_SPLITS if on else 0
-
-
-def _default_splits():
-    from sionnafmcw.engines import bounce_sampling
-
-    return bounce_sampling.MAX_SPLITS
-
-
-DEFAULT_SPLITS = None
-
-
 def channel_power(echoes, radar, label=None) -> float:
     """Mean over element pairs of the coherent channel's power (the contributions of ``label``)."""
     sel = slice(None) if label is None else echoes.labels[0, 0] == label
@@ -103,8 +87,7 @@ def issue(args):
         for centred in (False, True):
             for name, on in (("A", False), ("B", True)):
                 for n in (16, 48, 64):
-                    rule(on)
-                    engine = PathEngine(po_samples_across=n, max_depth=depth)
+                    engine = PathEngine(po_samples_across=n, max_depth=depth, po_bounce_rule=on)
                     row = []
                     for x in (0.0, 0.1, 0.2, 0.3, 0.4):
                         y = -radar.phase_centre[1] if centred else 0.0
@@ -114,7 +97,6 @@ def issue(args):
                         row.append(f"{s[0]:7.1f}{s[1]:7.1f} |{h[0]:7.1f}{h[1]:7.1f}")
                     print(f"depth {depth} {'centred' if centred else 'y=0    '} {name} n={n:3d}  " + "  ".join(row),
                           flush=True)
-    rule(True)
 
 
 def mirror(args):
@@ -130,8 +112,7 @@ def mirror(args):
     for aspect in (0, 15, 30, 45):
         anim = load_animation(mirror_pair_scene(folder / f"pair_{aspect}", 0.1, 3.0, 1.5, np.deg2rad(aspect)))
         for name, on in (("A", False), ("B", True)):
-            rule(on)
-            engine = PathEngine(max_depth=3, diffuse=False)
+            engine = PathEngine(max_depth=3, diffuse=False, po_bounce_rule=on)
             row = []
             for x in (0.0, 0.2, 0.4):
                 pose = RadarPose(np.array([x, -radar.phase_centre[1], 1.0]), np.zeros(3))
@@ -139,7 +120,6 @@ def mirror(args):
                 left, right = (db(channel_power(e, radar, lab)) for lab in ("left", "right"))
                 row.append(f"x={x:.1f}: {left:7.2f} {right:7.2f} {left - right:+5.2f}")
             print(f"aspect {aspect:2d} deg {name}  " + "   ".join(row), flush=True)
-    rule(True)
 
 
 def grid(args):
@@ -160,8 +140,7 @@ def grid(args):
                                                           distance, np.deg2rad(aspect)))
                     out = {}
                     for name, on, n in (("ref", True, 128), ("A", False, 16), ("B", True, 16)):
-                        rule(on)
-                        engine = PathEngine(po_samples_across=n, max_depth=depth, diffuse=False)
+                        engine = PathEngine(po_samples_across=n, max_depth=depth, diffuse=False, po_bounce_rule=on)
                         t0 = time.perf_counter()
                         e = engine.echoes(anim, radar, 0)
                         out[name] = (db(channel_power(e, radar)), [b.num_samples for b in engine.last_renders],
@@ -170,7 +149,6 @@ def grid(args):
                     print(f"{kind:9s} {leg:4.2f} m {distance:4.1f} m {aspect:2d} deg  converged {ref:8.2f}  "
                           f"A {out['A'][0] - ref:+6.2f} {out['A'][1]}  B {out['B'][0] - ref:+6.2f} {out['B'][1]}",
                           flush=True)
-    rule(True)
 
 
 def cost(args):
@@ -189,11 +167,10 @@ def cost(args):
         if not (path / "animation.json").is_file():
             scenes.build(params[scene][0], path, **params[scene][1])
         anim = load_animation(path)
-        engines = {"A": PathEngine(), "B": PathEngine()}
+        engines = {"A": PathEngine(po_bounce_rule=False), "B": PathEngine()}
         rows = {"A": [], "B": []}
         for f in range(args.frames):
             for name in (("A", "B") if f % 2 == 0 else ("B", "A")):
-                rule(name == "B")
                 w0, c0 = time.perf_counter(), cpu_seconds()
                 engines[name].echoes(anim, radar, f)
                 w1, c1 = time.perf_counter(), cpu_seconds()
@@ -209,18 +186,15 @@ def cost(args):
         a, b = np.array(rows["A"]), np.array(rows["B"])
         print(f"  B/A: first frame wall {b[0, 0] / a[0, 0]:.3f}; steady wall {b[1:, 0].mean() / a[1:, 0].mean():.3f}, "
               f"CPU {b[1:, 1].mean() / a[1:, 1].mean():.3f}", flush=True)
-    rule(True)
 
 
 def main(argv=None) -> int:
-    global DEFAULT_SPLITS
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("mode", choices=("issue", "mirror", "grid", "cost"))
     parser.add_argument("--kinds", nargs="+", default=["trihedral", "dihedral"], choices=("trihedral", "dihedral"))
     parser.add_argument("--frames", type=int, default=13, help="cost: frames per scene (the first apart)")
     parser.add_argument("--scenes", default=None, help="cost: folder of the scenes (built there when missing)")
     args = parser.parse_args(argv)
-    DEFAULT_SPLITS = _default_splits()
     {"issue": issue, "mirror": mirror, "grid": grid, "cost": cost}[args.mode](args)
     return 0
 

@@ -60,9 +60,10 @@ field, and to the image-method (GO) value :math:`\pi R^2` when the aperture span
 zones, exactly as a plate does. The return to the receiver is not tested for shadowing beyond
 the last surface (exact for the single bounce, where it retraces the incident ray).
 
-Limits: from the second bounce on the samples are spaced by the first object's angular step at
-the unfolded length (coarser than the resolution rule wants for a far second surface), and the
-return to the receive elements is not checked for blocking.
+Limits: from the second bounce on the samples are the first bounce's tubes at the unfolded length
+(coarser than the resolution rule wants for a far second surface); where an exit aperture's outline
+needs finer tubes, :mod:`~sionnafmcw.engines.bounce_sampling` splits them. The return to the receive
+elements is not checked for blocking.
 """
 
 from __future__ import annotations

@@ -227,12 +227,12 @@ class StaticPO:
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, merge) -> StaticPO:
+              contributions, merge, max_splits: int | None = None) -> StaticPO:
         """Render the static surfaces of ``world`` (``objects``: its :func:`~.po_render.scene_objects`)
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
         ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
-        (no merging)."""
+        (no merging); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`."""
         from ..echoes import Echoes
         from .bounce_sampling import resolved_bounces
         from .po_render import render
@@ -240,7 +240,8 @@ class StaticPO:
         static = [k for k, surface in enumerate(world.surfaces) if surface.kind == "static"]
         first = render(world, objects, centre, rotation, wavelength, targets=static, group="static",
                        samples_across=samples_across)
-        renders = resolved_bounces(world, first, objects, rotation, wavelength, depth, samples_across, "static")
+        renders = resolved_bounces(world, first, objects, rotation, wavelength, depth, samples_across, "static",
+                                   max_splits)
         d_first = renders[0].samples.position - renders[0].source
         length_first = np.linalg.norm(d_first, axis=-1)
         incident = (d_first / np.maximum(length_first, 1e-300)[:, None], length_first)
@@ -278,7 +279,7 @@ class StaticPO:
         return int(sum(int(k.sum()) for k in self.keep))
 
     def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, frequency: float):
+              contributions, frequency: float, max_splits: int | None = None):
         """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
 
         ``renders``: the frame's own PO renders (the moving objects' render and its reflections,
@@ -303,7 +304,8 @@ class StaticPO:
         # that now end on a moving object are followed from the cached static tubes
         chain = resolved_bounces(world, render(world, objects, centre, rotation, wavelength, targets=moving,
                                                samples_across=samples_across),
-                                 objects, rotation, wavelength, depth, samples_across) if moving else []
+                                 objects, rotation, wavelength, depth, samples_across,
+                                 max_splits=max_splits) if moving else []
         own = chain[:1]
         frontier = []
         for d in range(1, depth):
