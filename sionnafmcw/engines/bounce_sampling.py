@@ -122,7 +122,7 @@ def resolved_bounces(world, first, objects, rotation, wavelength: float, depth: 
     their chains followed (the other tubes' chains are kept), until every bound holds or
     ``max_splits`` rounds (default :data:`MAX_SPLITS`; 0: the chains at the first bounce's density) are done."""
     renders = follow(world, first, objects, rotation, wavelength, depth, group)
-    if len(renders) < 2 or max_splits == 0:
+    if len(renders) < 2 or max_splits == 0 or not plane_chains(renders, objects):
         return renders
     channels = monostatic_channels(renders, wavelength)
     for _ in range(MAX_SPLITS if max_splits is None else max_splits):
@@ -134,6 +134,20 @@ def resolved_bounces(world, first, objects, rotation, wavelength: float, depth: 
         renders, channels = _joined(renders, channels, split, new, monostatic_channels(new, wavelength,
                                                                                         renders[0].source[:1]))
     return renders
+
+
+def plane_chains(renders, objects) -> bool:
+    """True when some chain of two or more bounces in ``renders`` runs over plane faces only (flat-shaded
+    objects): the chains the rule samples (module docstring)."""
+    flat_ids = np.array([o.shape_id for o in objects if o.surface.flat], dtype=np.int64)
+    plane = np.isin(renders[0].samples.object_id, flat_ids)
+    for bounce in renders[1:]:
+        if bounce.num_samples == 0:
+            return False
+        plane = plane[bounce.parent] & np.isin(bounce.samples.object_id, flat_ids)
+        if np.any(plane):
+            return True
+    return False
 
 
 def _joined(renders, channels, split, new, new_channels):
@@ -365,4 +379,4 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
 
 
 __all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "error_share", "follow", "grid_neighbours",
-           "monostatic_channels", "quartered", "resolved_bounces", "surface_codes", "under_resolved"]
+           "monostatic_channels", "plane_chains", "quartered", "resolved_bounces", "surface_codes", "under_resolved"]
