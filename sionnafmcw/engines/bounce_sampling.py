@@ -65,10 +65,10 @@ power each), so the cost goes to the outlines that need it. At most :data:`MAX_S
 16 times finer); the first bounce's own PO is the same integral on the finer tubes.
 
 Apertures are told apart by the sequence of surfaces of their chains: the object of every bounce
-and, on a flat-shaded object (plane faces: a corner reflector, a wall), the plane of the face
+and, on a plane face (a corner reflector's, a wall: :func:`plane_samples`), the plane of the face
 (its normal to 1e-3).
 
-The rule samples the chains of plane faces only. Its premise, an interior that the tubes tile exactly
+The rule samples the chains over plane faces only. Its premise, an interior that the tubes tile exactly
 with the footprints of the mirrored steps, holds for plane mirrors; a chain that reflects off a curved
 (smooth-shaded) surface is followed as if that surface were its tangent plane at each tube
 (:mod:`~sionnafmcw.engines.po_render`), the divergence the curvature gives the reflected tube is not in
@@ -93,6 +93,9 @@ MAX_SPLITS = 4
 #: :math:`\eta` at the default ``samples_across`` (16): the bound on an exit aperture's echo error as a share of
 #: its object's echo amplitude (0.1: 0.83 dB at worst).
 ERROR_SHARE = 0.1
+#: A sample is on a plane face where its normal turns across its footprint by at most this (rad): the
+#: rounding of a flat-shaded face's corner normals, far below any curvature the render resolves.
+PLANE_TURN = 1e-6
 #: Grid neighbour search: a probe ray belongs to the nearest tube whose centre lies within this share
 #: of the larger of the two tubes' steps (1/sqrt(2) is the farthest a point of a square tube can be
 #: from its centre; a little more for the tubes' curvature on the sphere).
@@ -137,14 +140,13 @@ def resolved_bounces(world, first, objects, rotation, wavelength: float, depth: 
 
 
 def plane_chains(renders, objects) -> bool:
-    """True when some chain of two or more bounces in ``renders`` runs over plane faces only (flat-shaded
-    objects): the chains the rule samples (module docstring)."""
-    flat_ids = np.array([o.shape_id for o in objects if o.surface.flat], dtype=np.int64)
-    plane = np.isin(renders[0].samples.object_id, flat_ids)
+    """True when some chain of two or more bounces in ``renders`` runs over plane faces only
+    (:func:`plane_samples`): the chains the rule samples (module docstring)."""
+    plane = plane_samples(renders[0])
     for bounce in renders[1:]:
         if bounce.num_samples == 0:
             return False
-        plane = plane[bounce.parent] & np.isin(bounce.samples.object_id, flat_ids)
+        plane = plane[bounce.parent] & plane_samples(bounce)
         if np.any(plane):
             return True
     return False
@@ -182,14 +184,25 @@ def _joined(renders, channels, split, new, new_channels):
     return out, out_channels
 
 
-def surface_codes(bounce, objects) -> np.ndarray:
-    """One int64 per sample naming its surface: the object and, on a flat-shaded object, the face plane's
-    normal to 1e-3 (module docstring)."""
+def plane_samples(bounce) -> np.ndarray:
+    r"""``[P]`` bool: the samples on a plane face, whose normal turns across the tube's footprint by less
+    than :data:`PLANE_TURN` (:math:`\|\mathbf K\|_F\sqrt{\Delta A}`, :math:`\mathbf K` the shape operator):
+    a flat-shaded face up to the rounding of its corner normals."""
     s = bounce.samples
-    flat_ids = np.array([o.shape_id for o in objects if o.surface.flat], dtype=np.int64)
-    plane = np.round(s.normal * 1000.0).astype(np.int64) + 1000
-    code = (plane[:, 0] * 2001 + plane[:, 1]) * 2001 + plane[:, 2] + 1
-    return s.object_id.astype(np.int64) * (2001 ** 3 + 1) + np.where(np.isin(s.object_id, flat_ids), code, 0)
+    if s.curvature is None:
+        return np.ones(s.num_samples, dtype=bool)
+    turn = np.sqrt(np.einsum("pij,pij->p", s.curvature, s.curvature) * s.area)
+    return turn <= PLANE_TURN
+
+
+def surface_codes(bounce, plane=None) -> np.ndarray:
+    """One int64 per sample naming its surface: the object and, on a plane face (``plane [P]``,
+    :func:`plane_samples` when None), the face's normal to 1e-3 (module docstring)."""
+    s = bounce.samples
+    plane = plane_samples(bounce) if plane is None else plane
+    key = np.round(s.normal * 1000.0).astype(np.int64) + 1000
+    code = (key[:, 0] * 2001 + key[:, 1]) * 2001 + key[:, 2] + 1
+    return s.object_id.astype(np.int64) * (2001 ** 3 + 1) + np.where(plane, code, 0)
 
 
 def grid_neighbours(first) -> np.ndarray:
@@ -248,16 +261,16 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float, cha
     has = neighbours >= 0
     split = np.zeros(p, dtype=bool)
     empty = np.zeros((p, 4), dtype=bool)
-    chain = np.unique(surface_codes(first, objects), return_inverse=True)[1].reshape(-1)
-    flat_ids = np.array([o.shape_id for o in objects if o.surface.flat], dtype=np.int64)
-    plane = np.isin(first.samples.object_id, flat_ids)      # the chain so far of plane faces only
+    plane = plane_samples(first)                            # the chain so far over plane faces only
+    chain = np.unique(surface_codes(first, plane), return_inverse=True)[1].reshape(-1)
     root = np.arange(p)
     for d, bounce in enumerate(renders[1:], start=1):
         if bounce.num_samples == 0:
             break
         root = root[bounce.parent]
-        plane = plane[bounce.parent] & np.isin(bounce.samples.object_id, flat_ids)
-        chain = np.unique(np.stack([chain[bounce.parent], surface_codes(bounce, objects)], axis=1), axis=0,
+        here = plane_samples(bounce)
+        plane = plane[bounce.parent] & here
+        chain = np.unique(np.stack([chain[bounce.parent], surface_codes(bounce, here)], axis=1), axis=0,
                           return_inverse=True)[1].reshape(-1)
         signature = np.full(p, -1, dtype=np.int64)
         signature[root] = chain
@@ -378,5 +391,5 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
                         origin_motion)
 
 
-__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "error_share", "follow", "grid_neighbours",
+__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "plane_samples", "error_share", "follow", "grid_neighbours",
            "monostatic_channels", "plane_chains", "quartered", "resolved_bounces", "surface_codes", "under_resolved"]
