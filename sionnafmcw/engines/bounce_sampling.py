@@ -341,8 +341,8 @@ def _inside_earlier(centres, s_az, s_el, neighbours: int = 8) -> np.ndarray:
 
 
 def quartered(world, first, index, objects, rotation, wavelength: float, group: str = "all", empty=None):
-    r"""The quarters of the first bounce ``first``'s tubes ``index`` as a first-bounce render: the rays through the centres of
-    the quarters (:math:`\hat{\mathbf u} \pm \Delta_{az}/4 \pm \Delta_{el}/4`, normalised) cast from the
+    r"""The quarters of the first bounce ``first``'s tubes ``index`` as a first-bounce render: the rays
+    through the centres of the quarters (:math:`\hat{\mathbf u} \pm \Delta_{az}/4 \pm \Delta_{el}/4`, normalised) cast from the
     render origin over ``group``, a hit kept where it is on the tube's own object (visibility as the
     render's), with half the steps and a quarter of the solid angle. ``empty`` ``[K, 2]``: (tube, side)
     pairs (:func:`grid_neighbours`' order) whose neighbouring grid cell holds no tube (its centre ray
@@ -391,5 +391,6 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
                         origin_motion)
 
 
-__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "plane_samples", "error_share", "follow", "grid_neighbours",
-           "monostatic_channels", "plane_chains", "quartered", "resolved_bounces", "surface_codes", "under_resolved"]
+__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "error_share", "follow", "grid_neighbours",
+           "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces", "surface_codes",
+           "under_resolved"]

@@ -653,8 +653,8 @@ def join_first_bounces(a: Render, b: Render) -> Render:
         x, y = getattr(sa, name), getattr(sb, name)
         kw[name] = None if x is None or y is None else np.concatenate([x, y])
     acceleration = None if a.acceleration is None else np.concatenate([a.acceleration, b.acceleration])
-    motion = None if a.acceleration is None else (a.source_velocity[0] if a.num_samples else b.source_velocity[0],
-                                                  a.source_acceleration[0] if a.num_samples else b.source_acceleration[0])
+    either = a if a.num_samples else b
+    motion = None if a.acceleration is None else (either.source_velocity[0], either.source_acceleration[0])
     origin = a.source[0] if a.num_samples else b.source[0]
     return first_bounce(SurfaceSamples(**kw), np.concatenate([a.direction, b.direction]),
                         np.concatenate([a.step_az, b.step_az]), np.concatenate([a.step_el, b.step_el]), origin,
