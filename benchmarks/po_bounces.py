@@ -41,11 +41,11 @@ Measured
 ``sum|a|^2``, which moves with the sampling (at 64 across it reads -120 ... -121 dB, and at depth 3
 it falls from -91 to -103 dB as the samples get finer while the echo stays put): not an echo power.
 The echo, ``|h|^2``: with the defaults' two bounces a trihedral has no triple bounce and reads
--149 ... -124 dB (A) / -122 ... -109 dB (B), its dihedral pairs' residue; with three bounces
--76.1 ... -75.3 dB, left and right within 0.3 dB (0.1 dB with the phase centre on the lane's axis) and
-within 0.3 dB from 16 to 64 across, A and B alike: seen from the radar's start the pair is on its axis
-(``car_park`` points the apertures at it); the radar's 19 mm phase-centre offset was part of the
-issue's left/right asymmetry.
+-149 ... -124 dB (A) / -124 ... -111 dB (B, 16 across), its dihedral pairs' residue, 45-70 dB below
+the echo; with three bounces -76.3 ... -75.3 dB, left and right within 0.4 dB and within 0.3 dB from
+16 to 64 across, A and B alike: seen from the radar's start the pair is on its axis (``car_park``
+points the apertures at it). With the radar at y = 0 its phase centre is 19 mm off the lane's axis,
+so the two are not mirror images of each other for it; ``mirror`` puts the phase centre on the axis.
 
 ``mirror`` (three bounces): left - right within 0.22 dB at 0-45 degrees, x = 0-0.4 m, A and B alike.
 
