@@ -292,6 +292,12 @@ class PathEngine(Engine):
         ``"quadratic"``: each also gets its Doppler rate from the accelerations of its interaction
         points and of the radar (motion within the CPI, :mod:`~sionnafmcw.engines.cpi_motion`).
         The radar's own velocity (a moving radar) enters the Doppler either way.
+    po_bounce_rule : bool
+        True (default): every multi-bounce exit aperture sampled by the error rule of
+        :mod:`~sionnafmcw.engines.bounce_sampling` (the tubes along an outline split where its error
+        may exceed a share of the object's echo); False: the chains at the first bounce's density (the
+        engine before the rule, for comparisons: a corner reflector off its axis is then off by up to
+        3 dB, a room's corners by up to 8 dB).
 
     Notes
     -----
@@ -324,7 +330,7 @@ class PathEngine(Engine):
                  deterministic: bool = True, array_model: str = "coherent", deduplicate: bool = True,
                  physical_optics: bool = True, multibounce: str = "po", random_phase: bool = True,
                  po_samples_across: int = 16, po_merge: bool = True, static_scene: bool = True,
-                 cpi_motion: str = "frozen"):
+                 cpi_motion: str = "frozen", po_bounce_rule: bool = True):
         if label not in self.LABELS:
             raise PathEngineError(f"PathEngine: label={label!r} is unknown; choose one of {', '.join(self.LABELS)}")
         if array_model not in self.ARRAY_MODELS:
@@ -366,6 +372,7 @@ class PathEngine(Engine):
         self.po_merge = bool(po_merge)
         self.static_scene = bool(static_scene)
         self.cpi_motion = cpi_motion
+        self.po_bounce_rule = bool(po_bounce_rule)
         self._motion = None
         self._solver = PathSolver(deterministic=self.deterministic)
         self.last_paths: TracedPaths | None = None
@@ -380,7 +387,8 @@ class PathEngine(Engine):
                 "label": self.label, "array_model": self.array_model, "deduplicate": self.deduplicate,
                 "physical_optics": self.physical_optics, "multibounce": self.multibounce,
                 "random_phase": self.random_phase, "po_samples_across": self.po_samples_across,
-                "po_merge": self.po_merge, "static_scene": self.static_scene, "cpi_motion": self.cpi_motion}
+                "po_merge": self.po_merge, "static_scene": self.static_scene, "cpi_motion": self.cpi_motion,
+                "po_bounce_rule": self.po_bounce_rule}
 
     @property
     def coherent(self) -> bool:
@@ -604,8 +612,8 @@ class PathEngine(Engine):
             objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
             po = StaticPO.build(state.surfaces, objects, centre, rot, wavelength, self._po_depth,
                                 self.po_samples_across,
-                                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
-                                lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"))
+                                                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
+                                lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"), self._max_splits)
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
         block = Echoes.empty(radar.num_tx, radar.num_rx) if not parts else \
             (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
@@ -617,6 +625,11 @@ class PathEngine(Engine):
         return state.static, state.static.seconds
 
     # ------------------------------------------------------------------ physical optics
+    @property
+    def _max_splits(self) -> int | None:
+        """Rounds of :func:`~.bounce_sampling.resolved_bounces`: its default with ``po_bounce_rule``, else none."""
+        return None if self.po_bounce_rule else 0
+
     @property
     def _po_depth(self) -> int:
         return self.max_depth if (self.multibounce == "po" and self.specular) else 1
@@ -671,7 +684,8 @@ class PathEngine(Engine):
         the resolutions; ``rigid``: name -> the frame's rigid velocity (m/s). With the static scene
         cached (``static``), only the frame's own renders (what the moving objects change) and the
         blocked static samples (``removed``, opposite sign). Returns ``(echoes, removed, figures)``."""
-        from .po_render import reflect, render
+        from .bounce_sampling import resolved_bounces
+        from .po_render import render
 
         t0 = time.perf_counter()
         world = self._state.surfaces
@@ -687,15 +701,13 @@ class PathEngine(Engine):
         if static is not None and static.po is not None:
             renders, removed, num_removed = static.po.frame(
                 world, objects, centre, rot, wavelength, depth, self.po_samples_across,
-                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc)
+                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc, self._max_splits)
             self.last_renders = [*static.po.renders, *renders]
         else:
-            bounce = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
-                            **origin_motion)
-            renders = [bounce]
-            while bounce.depth < depth and bounce.num_samples:
-                bounce = reflect(world, bounce, objects, rot, wavelength)
-                renders.append(bounce)
+            first = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
+                           **origin_motion)
+            renders = resolved_bounces(world, first, objects, rot, wavelength, depth, self.po_samples_across,
+                                       max_splits=self._max_splits)
             self.last_renders = renders
         echoes = []
         num_samples = 0

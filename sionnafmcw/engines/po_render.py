@@ -60,9 +60,10 @@ field, and to the image-method (GO) value :math:`\pi R^2` when the aperture span
 zones, exactly as a plate does. The return to the receiver is not tested for shadowing beyond
 the last surface (exact for the single bounce, where it retraces the incident ray).
 
-Limits: from the second bounce on the samples are spaced by the first object's angular step at
-the unfolded length (coarser than the resolution rule wants for a far second surface), and the
-return to the receive elements is not checked for blocking.
+Limits: from the second bounce on the samples are the first bounce's tubes at the unfolded length
+(coarser than the resolution rule wants for a far second surface); where an exit aperture's outline
+needs finer tubes, :mod:`~sionnafmcw.engines.bounce_sampling` splits them. The return to the receive
+elements is not checked for blocking.
 """
 
 from __future__ import annotations
@@ -600,19 +601,64 @@ def render(world, objects: list[SceneObject], origin, rotation, wavelength: floa
     s_el = (np.stack([-s_e * c_a, -s_e * s_a, c_e], -1) * d_el[:, None]) @ rotation.T
     samples, direction, acceleration = _samples(world, objects, owner[keep], prim[keep], uv[keep], origin, s_az, s_el, solid,
                                                 rotation, wavelength)
+    return first_bounce(samples, direction, s_az, s_el, origin, steps, num_rays, acceleration,
+                        None if acceleration is None else (origin_velocity, origin_acceleration))
+
+
+def first_bounce(samples, direction, step_az, step_el, origin, steps, num_rays, acceleration=None,
+                 origin_motion=None) -> Render:
+    """The :class:`Render` of bounce 1 of ``samples`` seen from ``origin``: the source is the origin, the
+    image map the identity, the chain empty, the first point the sample itself (read-only broadcasts and
+    the samples' own arrays, no per-sample copies); with ``acceleration`` ``[P, 3]``, ``origin_motion``
+    ``(velocity, acceleration)`` of the origin (None entries: zero)."""
     p = samples.num_samples
-    # bounce 1: the source is the origin, the image map the identity, the chain empty, the first point
-    # the sample itself: read-only broadcasts and the samples' own arrays (no per-sample copies)
     out = Render(samples, 1, np.broadcast_to(origin, (p, 3)), np.broadcast_to(np.eye(3), (p, 3, 3)),
                  np.broadcast_to(np.zeros(3), (p, 3)), np.broadcast_to(np.complex128(1.0), (p,)),
-                 direction, s_az, s_el, samples.position, samples.velocity, np.broadcast_to(0.0, (p,)), steps, num_rays)
+                 direction, step_az, step_el, samples.position, samples.velocity, np.broadcast_to(0.0, (p,)), steps,
+                 num_rays)
     if acceleration is not None:
+        velocity, accel = (None, None) if origin_motion is None else origin_motion
         out.acceleration = acceleration
-        out.source_velocity = np.broadcast_to(np.zeros(3) if origin_velocity is None else origin_velocity,
-                                              (p, 3)).astype(float)
-        out.source_acceleration = np.broadcast_to(np.zeros(3) if origin_acceleration is None else
-                                                  origin_acceleration, (p, 3)).astype(float)
+        out.source_velocity = np.broadcast_to(np.zeros(3) if velocity is None else velocity, (p, 3)).astype(float)
+        out.source_acceleration = np.broadcast_to(np.zeros(3) if accel is None else accel, (p, 3)).astype(float)
     return out
+
+
+def join_renders(a: Render, b: Render, parent_offset: int = 0) -> Render:
+    """The renders ``a`` and ``b`` of one bounce (depth 2 or more) as one: ``a``'s samples, then ``b``'s, whose
+    ``parent`` indices are moved by ``parent_offset`` (the previous bounce joined the same way)."""
+    from dataclasses import fields, replace
+
+    kw = {}
+    for f in fields(Render):
+        x, y = getattr(a, f.name), getattr(b, f.name)
+        if f.name == "samples":
+            kw[f.name] = SurfaceSamples(**{n: None if getattr(x, n) is None or getattr(y, n) is None else
+                                           np.concatenate([getattr(x, n), getattr(y, n)])
+                                           for n in x.__dataclass_fields__})
+        elif f.name == "parent":
+            kw[f.name] = np.concatenate([x, y + parent_offset])
+        elif isinstance(x, np.ndarray) and isinstance(y, np.ndarray):
+            kw[f.name] = np.concatenate([x, y])
+        elif f.name == "num_rays":
+            kw[f.name] = x + y
+    return replace(a, **kw)
+
+
+def join_first_bounces(a: Render, b: Render) -> Render:
+    """The bounce-1 renders ``a`` and ``b`` (the same origin) as one: ``a``'s samples, then ``b``'s."""
+    sa, sb = a.samples, b.samples
+    kw = {}
+    for name in sa.__dataclass_fields__:
+        x, y = getattr(sa, name), getattr(sb, name)
+        kw[name] = None if x is None or y is None else np.concatenate([x, y])
+    acceleration = None if a.acceleration is None else np.concatenate([a.acceleration, b.acceleration])
+    either = a if a.num_samples else b
+    motion = None if a.acceleration is None else (either.source_velocity[0], either.source_acceleration[0])
+    origin = a.source[0] if a.num_samples else b.source[0]
+    return first_bounce(SurfaceSamples(**kw), np.concatenate([a.direction, b.direction]),
+                        np.concatenate([a.step_az, b.step_az]), np.concatenate([a.step_el, b.step_el]), origin,
+                        a.step, a.num_rays + b.num_rays, acceleration, motion)
 
 
 def _empty_render(origin, steps, num_rays, depth=1) -> Render:
@@ -760,5 +806,6 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
 
 
 __all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject",
-           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "flat_shaded", "object_box",
+           "chain_po_gains", "complex_reflection", "curvature_radius", "face_normals", "first_bounce", "flat_shaded",
+           "join_first_bounces", "join_renders", "object_box",
            "radio_material", "reflect", "render", "scene_objects", "shading_normals"]

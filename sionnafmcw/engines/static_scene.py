@@ -227,22 +227,21 @@ class StaticPO:
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, merge) -> StaticPO:
+              contributions, merge, max_splits: int | None = None) -> StaticPO:
         """Render the static surfaces of ``world`` (``objects``: its :func:`~.po_render.scene_objects`)
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
         ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
-        (no merging)."""
+        (no merging); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`."""
         from ..echoes import Echoes
-        from .po_render import reflect, render
+        from .bounce_sampling import resolved_bounces
+        from .po_render import render
 
         static = [k for k, surface in enumerate(world.surfaces) if surface.kind == "static"]
-        bounce = render(world, objects, centre, rotation, wavelength, targets=static, group="static",
-                        samples_across=samples_across)
-        renders = [bounce]
-        while bounce.depth < depth and bounce.num_samples:
-            bounce = reflect(world, bounce, objects, rotation, wavelength, group="static")
-            renders.append(bounce)
+        first = render(world, objects, centre, rotation, wavelength, targets=static, group="static",
+                       samples_across=samples_across)
+        renders = resolved_bounces(world, first, objects, rotation, wavelength, depth, samples_across, "static",
+                                   max_splits)
         d_first = renders[0].samples.position - renders[0].source
         length_first = np.linalg.norm(d_first, axis=-1)
         incident = (d_first / np.maximum(length_first, 1e-300)[:, None], length_first)
@@ -280,7 +279,7 @@ class StaticPO:
         return int(sum(int(k.sum()) for k in self.keep))
 
     def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, frequency: float):
+              contributions, frequency: float, max_splits: int | None = None):
         """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
 
         ``renders``: the frame's own PO renders (the moving objects' render and its reflections,
@@ -290,6 +289,7 @@ class StaticPO:
         how many static samples were taken out.
         """
         from ..echoes import Echoes
+        from .bounce_sampling import resolved_bounces
         from .po_merge import take_out_of_cells
         from .po_render import reflect, render
 
@@ -300,9 +300,14 @@ class StaticPO:
         if first.num_samples and moving:
             cand = np.flatnonzero(spheres.meet(first.source, *self.incident))
             removed[0][cand] = blocked_in_world(world, first.source[cand], first.samples.position[cand])
-        own = [render(world, objects, centre, rotation, wavelength, targets=moving, samples_across=samples_across)] \
-            if moving else []
-        frontier = list(own)
+        # the moving objects' own chains, every exit aperture resolved (bounce_sampling); the static chains
+        # that now end on a moving object are followed from the cached static tubes
+        chain = resolved_bounces(world, render(world, objects, centre, rotation, wavelength, targets=moving,
+                                               samples_across=samples_across),
+                                 objects, rotation, wavelength, depth, samples_across,
+                                 max_splits=max_splits) if moving else []
+        own = chain[:1]
+        frontier = []
         for d in range(1, depth):
             nxt = [reflect(world, b, objects, rotation, wavelength) for b in frontier if b.num_samples]
             if d < len(self.renders):
@@ -318,7 +323,7 @@ class StaticPO:
                         gone[ended[ended >= 0]] = True
                         nxt.append(reflect(world, prev.select(cand), objects, rotation, wavelength))
                 removed.append(gone)
-            own.extend(nxt)
+            own.extend(chain[d:d + 1] + nxt)
             frontier = nxt
         out = []
         for b, gone, kept, cells in zip(self.renders, removed, self.keep, self.cells):
