@@ -240,12 +240,13 @@ def worker(spec: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- parent
-def launch(spec: dict, env_extra: dict | None = None) -> dict:
-    """Run one worker subprocess on ``spec``; its JSON result (its output goes to our stderr)."""
+def launch(spec: dict, env_extra: dict | None = None, script: str | Path | None = None) -> dict:
+    """Run one worker subprocess on ``spec``; its JSON result (its output goes to our stderr).
+    ``script``: the benchmark whose ``--worker`` runs it (default this one)."""
     with tempfile.NamedTemporaryFile("r", suffix=".json", delete=False) as fh:
         result_path = fh.name
     env = os.environ | (env_extra or {})
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", json.dumps(spec), "--result", result_path]
+    cmd = [sys.executable, str(Path(script or __file__).resolve()), "--worker", json.dumps(spec), "--result", result_path]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, env=env, cwd=REPO, stdout=sys.stderr, stderr=sys.stderr)
     wall = time.perf_counter() - t0
