@@ -32,6 +32,77 @@ left out): ``|dP| max`` (dB), cells that differ, and the cube error power relati
 ``err dB`` (:math:`10\log_{10}\sum|x_B - x_A|^2/\sum|x_A|^2`).
 
     python benchmarks/frame_cost.py --tree-a /tmp/treeA [--frames 60] [--repeats 2] [--scene DIR]
+
+Measured
+--------
+On the 2-core AMD EPYC (no AVX-512 VP2INTERSECT), shared with six other sessions at the time (load
+average 8-11, so the wall times are stretched and only the ratios and the CPU seconds compare),
+main at 39034ed (A, ``git archive 39034ed | tar -x -C /tmp/fc/treeA``) against the static block
+filtered once and the render's curvature classes (B), the scene built with
+``sionnafmcw scene build jump /tmp/fc/jump --param room=true --param num_frames=60 --param fps=30``::
+
+    python benchmarks/frame_cost.py --scene /tmp/fc/jump --out /tmp/fc/out --frames 60 --repeats 2 \
+        --tree-a /tmp/fc/treeA --json /tmp/fc/ab1.json
+
+    run     wall s   cpu s s/frame  cpu/fr  first steady  adapt geometry     po static  trace |   load  place po_integral po_merge po_render po_static_frame  store  synth
+    A1       282.2    97.7   4.703   1.628  10.83  2.886   4.54     6.44 123.27   7.26  34.17 |   1.75   0.10       30.95    14.60     64.00           76.95   2.72 268.28
+    B1       159.0    58.8   2.649   0.981   9.75  2.358   4.09     7.33  97.65   6.18  28.98 |   2.03   0.04       20.23     8.73     57.71           69.48   6.05 142.85
+    A2       269.7   104.0   4.494   1.734   8.62  2.639   3.67     5.71 114.02   4.94  30.31 |   1.77   0.07       29.29    13.46     57.74           70.53   2.80 257.95
+    B2       131.8    59.2   2.197   0.987   7.31  1.947   3.52     5.75  82.57   4.85  24.04 |   1.32   0.03       18.49     7.71     45.77           56.59   5.25 118.95
+
+    per frame: A po_rays 196748, po_samples 121946 (= po_contributions: nothing merges), B 160489 and 85537;
+    static_po_samples 425240 and static_paths 7946 both
+    pair 1: time B/A 0.563, CPU B/A 0.602; echoes: |dP| max 0.041 dB, strongest cell differs in 0 frames,
+            strongest moving cell in 4, error -27.1 dB of A's cube power
+    pair 2: time B/A 0.489, CPU B/A 0.569; (the same echo figures)
+
+Per frame, first frame included: A 1.63-1.73 CPU-s (4.5-4.7 s wall), B 0.98-0.99 CPU-s (2.2-2.6 s
+wall); CPU B/A 0.57-0.60, wall B/A 0.49-0.56. The strongest range-Doppler cell is the same in all
+60 frames and the cube power within 0.041 dB; the strongest cell off zero Doppler (the body) moves
+in 4 frames, each time between two cells within 0.02-1.3 dB of each other in both runs (near ties:
+adjacent range bins 137/138 at Doppler bin 15, and two cells of the jumping body 0.4 dB apart);
+the power off zero Doppler changes by 0.003 dB on average, 0.67 dB at most (one frame).
+
+Where a frame went (A) and why it cost twice the walk's although its cube is 20x smaller: the
+cost grows with the echo's contributions, not with the cube. Engine and synthesis one after the
+other in one thread of control (``frames 1-12``, CPU-s per frame): A engine 0.87 (PO 1.04 s wall:
+render and second bounce of the body, the PO integral, the merge; Sionna's trace 0.21; geometry
+0.06), synthesis 1.22; B engine 0.66 (PO 0.47, trace 0.13, geometry 0.04), synthesis 0.36. First
+frame (scene load, the static block: the room's 425k PO samples and their 433k-contribution
+cube at a tenth of the budget): A 4.4 + 3.9, B 4.8 + 3.7 CPU-s.
+
+* The synthesis filtered the room's static block (433k contributions) through the IF chain of
+  the TI receiver in every frame although its cube is cached: 0.3 CPU-s a frame of work done
+  twice. Now each part goes through the chain when its cube is computed.
+* The body's PO samples did not depend on the radar's range (the rule's sample size is
+  :math:`\frac14\sqrt{\lambda\min(R, \rho)}`, and :math:`\rho \ll R`), nor on its resolution:
+  on the curvature. Each object was rendered on one grid at its most curved 2 %'s radius: the
+  two forearm-and-hand objects, whose flattened hand has a 6.3 mm rim, at 1.2 mm all over: 29.5k
+  of the body's 62.8k first-bounce samples, and as many second-bounce samples (their reflections,
+  mostly on the floor and walls). With a grid per curvature class (``po_render``, *Curvature
+  classes*) the body has 40.5k and the frame 85.5k PO contributions instead of 122k.
+* Nothing merges with this radar (``po_contributions`` = ``po_samples``): at every cell size that
+  would remove 20 % of the body's contributions the merge's error bound is 18-590 times its
+  budget (7.9e-9 sqrt(W) per sample, the budget of a 15 dB noise figure at 4.9 MHz), so the
+  merge's tries cost 0.13 s a frame for nothing; the synthesis pays per contribution.
+
+What is left per steady frame (B, CPU-s, one thread of control: engine 0.66, synthesis 0.36), and
+what would remove it:
+
+* the body's PO render (rays, samples on the smooth surface: 0.18 s) and its second bounce
+  (0.11 s; 43k of the frame's 85k contributions are the body's reflections onto the room, which
+  also cost a third of the PO integral, 0.11 s, and of the synthesis): a sample budget for the
+  bounces (issue 35);
+* the merge's failing tries (0.05 s) and a synthesis per contribution (0.36 s): a merge whose
+  bound admits the cells this radar cannot resolve (the bound is a worst case over element pairs,
+  2-10 times the measured merge error, ``benchmarks/po_merge.py``);
+* Sionna's full trace of the room every frame for the paths that touch the body (0.13 s): a trace
+  of the rays that can reach a moving object;
+* the first frame's static block (8.5 CPU-s, 0.14 CPU-s a frame over 60 frames, 2 CPU-s a frame
+  over a 4-frame data-set item): kept across the items of a worker when the room and the radar's
+  pose repeat.
+
+A quarter of A's CPU (0.42 CPU-s a frame) is not reached by these two changes (0.57-0.60).
 """
 
 from __future__ import annotations
