@@ -81,18 +81,19 @@ cube at a tenth of the budget): A 4.4 + 3.9, B 4.8 + 3.7 CPU-s.
   of the body's 62.8k first-bounce samples, and as many second-bounce samples (their reflections,
   mostly on the floor and walls). With a grid per curvature class (``po_render``, *Curvature
   classes*) the body has 40.5k and the frame 85.5k PO contributions instead of 122k.
-* Nothing merges with this radar (``po_contributions`` = ``po_samples``): at every cell size that
-  would remove 20 % of the body's contributions the merge's error bound is 18-590 times its
-  budget (7.9e-9 sqrt(W) per sample, the budget of a 15 dB noise figure at 4.9 MHz), so the
-  merge's tries cost 0.13 s a frame for nothing; the synthesis pays per contribution.
+* Nothing merges with this radar (``po_contributions`` = ``po_samples``): the merge's error bound
+  on the body's first bounce is 590 times its budget (7.9e-9 sqrt(W) per sample) in cells of 1/64
+  of the resolutions and still 18 times in cells of 1/256, where merging would remove only 16 %
+  of the contributions (less than ``MIN_SAVING``); the room's static renders likewise. The
+  merge's tries cost 0.05-0.13 s a frame for nothing, and the synthesis pays per contribution.
 
 What is left per steady frame (B, CPU-s, one thread of control: engine 0.66, synthesis 0.36), and
 what would remove it:
 
 * the body's PO render (rays, samples on the smooth surface: 0.18 s) and its second bounce
-  (0.11 s; 43k of the frame's 85k contributions are the body's reflections onto the room, which
-  also cost a third of the PO integral, 0.11 s, and of the synthesis): a sample budget for the
-  bounces (issue 35);
+  (0.11 s; about half of the frame's 85k contributions are the body's reflections, mostly onto the
+  floor and walls, and take about half of the PO integral, 0.11 s in all, and of the synthesis):
+  a sample budget for the bounces (issue 35);
 * the merge's failing tries (0.05 s) and a synthesis per contribution (0.36 s): a merge whose
   bound admits the cells this radar cannot resolve (the bound is a worst case over element pairs,
   2-10 times the measured merge error, ``benchmarks/po_merge.py``);
