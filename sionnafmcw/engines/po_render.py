@@ -37,7 +37,7 @@ The resolution rule is local: a sample of size :math:`s` on a surface of radius 
 (:func:`~sionnafmcw.physical_optics.render_resolution`). One grid per object at the object's smallest
 radius samples all of it as finely as its most curved part needs: a forearm capsule of 35 mm
 radius that ends in a flattened hand, whose rim curves at 6 mm, is sampled at 1.2 mm all over,
-where the capsule needs 3.7 mm (on the ``jump`` scene's body at 6 m, the two forearms then hold
+where the capsule needs 2.9 mm (on the ``jump`` scene's body at 6 m, the two forearms then hold
 29k of its 63k first-bounce samples; 8k with the classes). So the triangles of a
 curved surface are put in *curvature classes* (:func:`curvature_classes`): class :math:`c`
 holds the triangles whose own radius (:func:`triangle_curvature_radii`, the smallest over its
