@@ -56,8 +56,17 @@ filtered once and the render's curvature classes (B), the scene built with
             strongest moving cell in 4, error -27.1 dB of A's cube power
     pair 2: time B/A 0.489, CPU B/A 0.569; (the same echo figures)
 
-Per frame, first frame included: A 1.63-1.73 CPU-s (4.5-4.7 s wall), B 0.98-0.99 CPU-s (2.2-2.6 s
-wall); CPU B/A 0.57-0.60, wall B/A 0.49-0.56. The strongest range-Doppler cell is the same in all
+The same command half an hour later with ``--repeats 1 --out /tmp/fc/out2``, the machine quieter
+(load average 3-5)::
+
+    run     wall s   cpu s s/frame  cpu/fr  first steady  adapt geometry     po static  trace |   load  place po_integral po_merge po_render po_static_frame  store  synth
+    A1        85.4    88.5   1.423   1.475   3.13  0.960   1.41     2.65  40.30   1.89   9.78 |   0.64   0.05       10.23     4.94     20.36           24.73   1.39  80.71
+    B1        47.5    53.7   0.791   0.895   3.13  0.783   1.20     2.36  29.61   1.84   7.85 |   0.70   0.03        6.60     2.85     16.21           20.25   2.52  41.64
+
+    pair 1: time B/A 0.556, CPU B/A 0.607; echoes as above (bit for bit the same cubes as the first run's)
+
+Per frame, first frame included: A 1.48-1.73 CPU-s (1.42 s wall on the quieter machine, 4.5-4.7 s
+under load), B 0.90-0.99 CPU-s (0.79 s; 2.2-2.6 s); CPU B/A 0.57-0.61, wall B/A 0.49-0.56. The strongest range-Doppler cell is the same in all
 60 frames and the cube power within 0.041 dB; the strongest cell off zero Doppler (the body) moves
 in 4 frames, each time between two cells within 0.02-1.3 dB of each other in both runs (near ties:
 adjacent range bins 137/138 at Doppler bin 15, and two cells of the jumping body 0.4 dB apart);
