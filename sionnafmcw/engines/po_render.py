@@ -832,7 +832,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     return a, tau, doppler
 
 
-__all__ = ["CREASE_ANGLE", "MAX_RAYS_PER_OBJECT", "Material", "Render", "RenderError", "SceneObject",
-           "CURVATURE_CLASS_RATIO", "MAX_CURVATURE_CLASSES", "chain_po_gains", "complex_reflection",
-           "curvature_classes", "curvature_radius", "triangle_curvature_radii", "face_normals", "flat_shaded", "object_box",
-           "radio_material", "reflect", "render", "scene_objects", "shading_normals"]
+__all__ = ["CREASE_ANGLE", "CURVATURE_CLASS_RATIO", "MAX_CURVATURE_CLASSES", "MAX_RAYS_PER_OBJECT", "Material",
+           "Render", "RenderError", "SceneObject", "chain_po_gains", "complex_reflection", "curvature_classes",
+           "curvature_radius", "face_normals", "flat_shaded", "object_box", "radio_material", "reflect", "render",
+           "scene_objects", "shading_normals", "triangle_curvature_radii"]
