@@ -32,6 +32,7 @@ left out): ``|dP| max`` (dB), cells that differ, and the cube error power relati
 ``err dB`` (:math:`10\log_{10}\sum|x_B - x_A|^2/\sum|x_A|^2`).
 
     python benchmarks/frame_cost.py --tree-a /tmp/treeA [--frames 60] [--repeats 2] [--scene DIR]
+    python benchmarks/frame_cost.py --tree-a /tmp/treeA --sequential 12    # per-stage CPU, no overlap
 
 Measured
 --------
@@ -74,11 +75,22 @@ the power off zero Doppler changes by 0.003 dB on average, 0.67 dB at most (one 
 
 Where a frame went (A) and why it cost twice the walk's although its cube is 20x smaller: the
 cost grows with the echo's contributions, not with the cube. Engine and synthesis one after the
-other in one thread of control (``frames 1-12``, CPU-s per frame): A engine 0.87 (PO 1.04 s wall:
-render and second bounce of the body, the PO integral, the merge; Sionna's trace 0.21; geometry
-0.06), synthesis 1.22; B engine 0.66 (PO 0.47, trace 0.13, geometry 0.04), synthesis 0.36. First
-frame (scene load, the static block: the room's 425k PO samples and their 433k-contribution
-cube at a tenth of the budget): A 4.4 + 3.9, B 4.8 + 3.7 CPU-s.
+other in one thread of control, CPU-s (the engine's stages in wall seconds a frame)::
+
+    python benchmarks/frame_cost.py --scene /tmp/fc/jump --out /tmp/fc/out3 --tree-a /tmp/fc/treeA --sequential 12
+
+    A: frame 0 engine 4.15 + synthesis 3.25 CPU-s; frames 1-12: engine 0.868 + synthesis 1.016 CPU-s a frame;
+       engine stages (wall s a frame): geometry 0.057, static 0.000, trace 0.235, adapt 0.030, po 1.060
+    B: frame 0 engine 3.23 + synthesis 3.24 CPU-s; frames 1-12: engine 0.632 + synthesis 0.365 CPU-s a frame;
+       engine stages (wall s a frame): geometry 0.057, static 0.000, trace 0.236, adapt 0.026, po 0.715
+
+(frame 0: scene load and the static block, the room's 425k PO samples and their 433k-contribution
+cube at a tenth of the budget; an earlier run of the same measurement gave frame 0 A 4.4 + 3.9,
+B 4.8 + 3.7 CPU-s, steady A 0.87 + 1.22, B 0.66 + 0.36: frame 0 moves by a second with the load.)
+A cProfile of B's steady frames (4 frames, one process) splits its PO stage into the frame's own
+renders (``StaticPO.frame``, 0.36 s a frame: the body's render 0.18, its reflections 0.11, the
+blocked static samples 0.07), the PO integral (``element_pair_po``, 0.11) and the merge's tries
+(0.05).
 
 * The synthesis filtered the room's static block (433k contributions) through the IF chain of
   the TI receiver in every frame although its cube is cached: 0.3 CPU-s a frame of work done
@@ -96,8 +108,8 @@ cube at a tenth of the budget): A 4.4 + 3.9, B 4.8 + 3.7 CPU-s.
   of the contributions (less than ``MIN_SAVING``); the room's static renders likewise. The
   merge's tries cost 0.05-0.13 s a frame for nothing, and the synthesis pays per contribution.
 
-What is left per steady frame (B, CPU-s, one thread of control: engine 0.66, synthesis 0.36), and
-what would remove it:
+What is left per steady frame (B, CPU-s, one thread of control: engine 0.63-0.66, synthesis 0.36),
+and what would remove it:
 
 * the body's PO render (rays, samples on the smooth surface: 0.18 s) and its second bounce
   (0.11 s; about half of the frame's 85k contributions are the body's reflections, mostly onto the
@@ -106,13 +118,13 @@ what would remove it:
 * the merge's failing tries (0.05 s) and a synthesis per contribution (0.36 s): a merge whose
   bound admits the cells this radar cannot resolve (the bound is a worst case over element pairs,
   2-10 times the measured merge error, ``benchmarks/po_merge.py``);
-* Sionna's full trace of the room every frame for the paths that touch the body (0.13 s): a trace
+* Sionna's full trace of the room every frame for the paths that touch the body (0.13-0.24 s): a trace
   of the rays that can reach a moving object;
-* the first frame's static block (8.5 CPU-s, 0.14 CPU-s a frame over 60 frames, 2 CPU-s a frame
-  over a 4-frame data-set item): kept across the items of a worker when the room and the radar's
+* the first frame's scene load and static block (6.5-8.5 CPU-s: 0.11-0.14 CPU-s a frame over 60
+  frames, about 2 CPU-s a frame over a 4-frame data-set item): kept across the items of a worker when the room and the radar's
   pose repeat.
 
-A quarter of A's CPU (0.42 CPU-s a frame) is not reached by these two changes (0.57-0.60).
+A quarter of A's CPU (0.37-0.43 CPU-s a frame) is not reached by these two changes (0.57-0.61).
 """
 
 from __future__ import annotations
@@ -211,7 +223,34 @@ def rd_summary(cubes):
             "peak_moving": [[int(a), int(b)] for a, b in peak_moving], "num_doppler": n_d}
 
 
+def sequential(spec: dict) -> dict:
+    """``--sequential``: frame 0, then frames 1..N, each frame's engine and synthesis one after the other
+    in one thread of control (no overlap), CPU seconds of each and the engine's stage figures."""
+    import numpy as np
+
+    from sionnafmcw import engines
+    from sionnafmcw.animation import load_animation
+    from sionnafmcw.radar import RadarConfig
+    from sionnafmcw.synthesis import synthesize
+
+    animation = load_animation(spec["scene"])
+    radar = RadarConfig.resolve(spec["radar"])
+    engine = engines.create("path", **spec["options"])
+    cache, rows = {}, []
+    for f in range(spec["frames"]):
+        c0 = walk_frames.cpu_seconds()
+        echoes = engine.echoes(animation, radar, f)
+        c1 = walk_frames.cpu_seconds()
+        synthesize(echoes, radar, frame_time=animation.frames[f].time, rng=np.random.default_rng([0, f]),
+                   static_cache=cache)
+        rows.append({"engine_cpu": c1 - c0, "synthesis_cpu": walk_frames.cpu_seconds() - c1,
+                     "stages": {k[:-8]: v for k, v in engine.last_stats.figures.items() if k.endswith("_seconds")}})
+    return {"rows": rows}
+
+
 def worker(spec: dict) -> dict:
+    if spec.get("sequential"):
+        return sequential(spec)
     t0 = time.perf_counter()
     try:
         from sionnafmcw.heap import limit_arenas
@@ -339,6 +378,8 @@ def main(argv=None) -> int:
     p.add_argument("--tree-b", default=None, help="as --tree-a, for B")
     p.add_argument("--only", choices=("A", "B"), default=None, help="run one method only (profiling)")
     p.add_argument("--no-noise", action="store_true", help="simulate without receiver noise")
+    p.add_argument("--sequential", type=int, default=0, metavar="N",
+                   help="instead: frames 0..N, engine and synthesis one after the other, CPU seconds of each")
     p.add_argument("--json", default=None)
     p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     p.add_argument("--result", default=None, help=argparse.SUPPRESS)
@@ -368,6 +409,19 @@ def main(argv=None) -> int:
                 p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there")
             trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
     methods = {"A": args.method_a, "B": args.method_b}
+    if args.sequential:
+        for method in ("A", "B") if args.only is None else (args.only,):
+            spec = {"label": method, "scene": str(scene), "radar": str(radar), "frames": args.sequential + 1,
+                    "options": methods[method], "sequential": True}
+            rows = circle_walk.launch(spec, trees.get(method), __file__)["rows"]
+            steady = rows[1:]
+            stages = {k: sum(r["stages"].get(k, 0.0) for r in steady) / len(steady) for k in steady[0]["stages"]}
+            print(f"{method}: frame 0 engine {rows[0]['engine_cpu']:.2f} + synthesis {rows[0]['synthesis_cpu']:.2f} "
+                  f"CPU-s; frames 1-{args.sequential}: engine "
+                  f"{sum(r['engine_cpu'] for r in steady) / len(steady):.3f} + synthesis "
+                  f"{sum(r['synthesis_cpu'] for r in steady) / len(steady):.3f} CPU-s a frame; engine stages (wall s a "
+                  f"frame): " + ", ".join(f"{k} {v:.3f}" for k, v in stages.items()))
+        return 0
     runs = []
     for i in range(args.repeats):
         for method in ("A", "B") if args.only is None else (args.only,):
