@@ -1,4 +1,5 @@
-r"""Cost of a data-set frame, stage by stage: a person jumping in a room seen by RadHAR's IWR1443, A against B.
+r"""Cost of a data-set frame, stage by stage: a person jumping in a room seen by RadHAR's IWR1443, A
+against B.
 
 What it measures: :func:`sionnafmcw.simulation.simulate` of the ``jump`` activity (CMU 75_10) with
 ``room=true``, 60 frames at 30 fps (built once, ``--scene`` to reuse one), with the path engine's
@@ -67,8 +68,8 @@ The same command half an hour later with ``--repeats 1 --out /tmp/fc/out2``, the
     pair 1: time B/A 0.556, CPU B/A 0.607; echoes as above (bit for bit the same cubes as the first run's)
 
 Per frame, first frame included: A 1.48-1.73 CPU-s (1.42 s wall on the quieter machine, 4.5-4.7 s
-under load), B 0.90-0.99 CPU-s (0.79 s; 2.2-2.6 s); CPU B/A 0.57-0.61, wall B/A 0.49-0.56. The strongest range-Doppler cell is the same in all
-60 frames and the cube power within 0.041 dB; the strongest cell off zero Doppler (the body) moves
+under load), B 0.90-0.99 CPU-s (0.79 s; 2.2-2.6 s); CPU B/A 0.57-0.61, wall B/A 0.49-0.56. The
+strongest range-Doppler cell is the same in all 60 frames and the cube power within 0.041 dB; the strongest cell off zero Doppler (the body) moves
 in 4 frames, each time between two cells within 0.02-1.3 dB of each other in both runs (near ties:
 adjacent range bins 137/138 at Doppler bin 15, and two cells of the jumping body 0.4 dB apart);
 the power off zero Doppler changes by 0.003 dB on average, 0.67 dB at most (one frame).
@@ -118,11 +119,11 @@ and what would remove it:
 * the merge's failing tries (0.05 s) and a synthesis per contribution (0.36 s): a merge whose
   bound admits the cells this radar cannot resolve (the bound is a worst case over element pairs,
   2-10 times the measured merge error, ``benchmarks/po_merge.py``);
-* Sionna's full trace of the room every frame for the paths that touch the body (0.13-0.24 s): a trace
-  of the rays that can reach a moving object;
+* Sionna's full trace of the room every frame for the paths that touch the body (0.13-0.24 s):
+  a trace of the rays that can reach a moving object;
 * the first frame's scene load and static block (6.5-8.5 CPU-s: 0.11-0.14 CPU-s a frame over 60
-  frames, about 2 CPU-s a frame over a 4-frame data-set item): kept across the items of a worker when the room and the radar's
-  pose repeat.
+  frames, about 2 CPU-s a frame over a 4-frame data-set item): kept across the items of a worker
+  when the room and the radar's pose repeat.
 
 A quarter of A's CPU (0.37-0.43 CPU-s a frame) is not reached by these two changes (0.57-0.61).
 """
