@@ -69,8 +69,9 @@ The same command half an hour later with ``--repeats 1 --out /tmp/fc/out2``, the
 Per frame, first frame included: A 1.48-1.73 CPU-s (1.42 s wall on the quieter machine, 4.5-4.7 s
 under load), B 0.90-0.99 CPU-s (0.79 s; 2.2-2.6 s); CPU B/A 0.57-0.61, wall B/A 0.49-0.56. The
 strongest range-Doppler cell is the same in all 60 frames and the cube power within 0.041 dB; the
-strongest cell off zero Doppler (the body) moves in 4 frames, each time between two cells within 0.02-1.3 dB of each other in both runs (near ties:
-adjacent range bins 137/138 at Doppler bin 15, and two cells of the jumping body 0.4 dB apart);
+strongest cell off zero Doppler (the body) moves in 4 frames, each time between two cells within
+0.02-1.3 dB of each other in both runs (near ties: adjacent range bins 137/138 at Doppler bin 15,
+and two cells of the jumping body 0.4 dB apart);
 the power off zero Doppler changes by 0.003 dB on average, 0.67 dB at most (one frame).
 
 Where a frame went (A) and why it cost twice the walk's although its cube is 20x smaller: the
