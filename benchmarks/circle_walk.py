@@ -152,6 +152,22 @@ peak memory 0.998 / 1.016 / 1.008 (A's own peak moves by 40-100 MiB from run to 
 kernel's tables (one copy), the same command an hour later, on a machine 7 % slower (A 47.7 s):
 B 31.3 s, time B/A 0.645 / 0.659 / 0.665 (0.656), peak memory B/A 1.002 / 0.988 / 0.952 (0.980;
 B 1403 MiB, A 1431).
+
+The PO render's curvature classes (``engines/po_render.py``: each class of an object's triangles on
+the grid its own curvature needs; the walker's body 3 % fewer PO contributions) and the static block
+filtered once, against main before them (39034ed, ``git archive`` into ``/tmp/fc/treeA``), on the
+2-core machine shared with other sessions (load average 6-11: the wall times are not comparable)::
+
+    python benchmarks/circle_walk.py --frames 100 --seeds 1 2 3 --out /tmp/fc/cwout --method-a '{}' \
+        --tree-a /tmp/fc/treeA
+
+    run      total s   cpu s s/frame first s  steady engine s synth+st adapt geometry    po static trace e_velo peak MiB
+    A mean     149.5    72.9    1.49     5.3    1.40    144.6      4.9   4.9      6.3  95.5     3.1  31.5  0.461     1407
+    B mean     177.3    68.4    1.77     7.1    1.63    172.7      4.6   6.0      7.8 109.9     4.1  41.1  0.439     1376
+
+CPU B/A 0.922 / 0.950 / 0.943 (mean 0.938), peak memory B/A 0.978; e_velo A 0.474 / 0.458 / 0.452
+(stop 26's B to the digit), B 0.429 / 0.426 / 0.462 m/s: B - A -0.044 / -0.031 / +0.010 (mean
+-0.022, sd 0.028), within the seeds' spread (six seeds before: sd 0.021-0.028 m/s).
 """
 
 from __future__ import annotations
@@ -240,12 +256,13 @@ def worker(spec: dict) -> dict:
 
 
 # ----------------------------------------------------------------------------- parent
-def launch(spec: dict, env_extra: dict | None = None) -> dict:
-    """Run one worker subprocess on ``spec``; its JSON result (its output goes to our stderr)."""
+def launch(spec: dict, env_extra: dict | None = None, script: str | Path | None = None) -> dict:
+    """Run one worker subprocess on ``spec``; its JSON result (its output goes to our stderr).
+    ``script``: the benchmark whose ``--worker`` runs it (default this one)."""
     with tempfile.NamedTemporaryFile("r", suffix=".json", delete=False) as fh:
         result_path = fh.name
     env = os.environ | (env_extra or {})
-    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", json.dumps(spec), "--result", result_path]
+    cmd = [sys.executable, str(Path(script or __file__).resolve()), "--worker", json.dumps(spec), "--result", result_path]
     t0 = time.perf_counter()
     proc = subprocess.run(cmd, env=env, cwd=REPO, stdout=sys.stderr, stderr=sys.stderr)
     wall = time.perf_counter() - t0

@@ -367,3 +367,27 @@ def test_static_block_cache_carries_the_filtered_and_delay_weighted_cubes():
         assert np.abs(cached - plain).max() < 1e-4 * np.abs(plain).max()
         entry = cache["room"]
         assert entry[3] is not None and entry[0] == radar
+
+
+def test_cached_static_block_goes_through_the_if_chain_once(monkeypatch):
+    """The IF chain's gain depends on each contribution alone, so the static block is filtered when its
+    cube is computed and never again: a frame that reuses the cached cube filters its own contributions only."""
+    import sionnafmcw.receiver as receiver
+
+    radar = AWR.replace(num_chirps=8, adc_bits=None)
+    rng = np.random.default_rng(5)
+    n = 50
+    static = Echoes.point_targets(radar, rng.uniform(0.5, 10, n), np.zeros(n), np.deg2rad(rng.uniform(-60, 60, n)))
+    static = Echoes(static.a, static.tau, static.doppler, static_count=n, static_key="room")
+    movers = Echoes.point_targets(radar, [2.0, 4.0, 6.0], [1.0, -0.5, 0.3], [0.1, -0.2, 0.0])
+    filtered = []
+    beat_frequency = receiver.beat_frequency
+    monkeypatch.setattr(receiver, "beat_frequency",
+                        lambda e, r: filtered.append(e.num_contributions) or beat_frequency(e, r))
+    cache = {}
+    synthesize(Echoes.concatenate([static, movers]), radar, rng=1, static_cache=cache)
+    first = sum(filtered)
+    filtered.clear()
+    synthesize(Echoes.concatenate([static, movers]), radar, rng=2, static_cache=cache)
+    assert first == n + 3                       # the first frame: the block and the movers
+    assert sum(filtered) == 3                   # then the movers only

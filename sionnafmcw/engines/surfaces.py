@@ -79,6 +79,7 @@ class Surface:
     refined: object = None            # the :class:`~sionnafmcw.smooth_surface.RefinedSurface` (None: the mesh itself)
     mesh_edge: float = 0.0            # the stored mesh's longest edge (m)
     _gradients: np.ndarray | None = field(default=None, repr=False)   # normal_gradients(), once computed
+    _classes: tuple | None = field(default=None, repr=False)          # curvature_classes(), once computed
 
     def __post_init__(self):
         if self.first_vertices is None:
@@ -93,6 +94,25 @@ class Surface:
 
             self._gradients = normal_gradient_tensors(self.vertices[self.faces], self.corner_normals)
         return self._gradients
+
+    def curvature_classes(self) -> tuple:
+        """``(triangle_class [F], radii [C], class_vertices)``: the curvature class of every triangle and each
+        class's radius of curvature (m) for the PO render's grids
+        (:func:`~sionnafmcw.engines.po_render.curvature_classes`), and per class the indices of its
+        triangles' vertices (None when there is one class: a flat surface, or one whose triangles all
+        curve alike); computed on first use and kept (a deforming surface's rewrite drops it)."""
+        if self._classes is None:
+            from .po_render import curvature_classes, triangle_curvature_radii
+
+            if self.flat or not np.isfinite(self.curvature_radius):
+                triangle_class, radii = np.zeros(len(self.faces), dtype=np.int64), np.array([self.curvature_radius])
+            else:
+                triangle_class, radii = curvature_classes(
+                    triangle_curvature_radii(self.vertices, self.faces, self.corner_normals), self.curvature_radius)
+            class_vertices = None if len(radii) == 1 else \
+                [np.unique(self.faces[triangle_class == c]) for c in range(len(radii))]
+            self._classes = (triangle_class, radii, class_vertices)
+        return self._classes
 
     @staticmethod
     def corner_normals_of(vertices, faces, vertex_normals=None, crease_angle=None) -> np.ndarray:
@@ -348,7 +368,7 @@ class SurfaceWorld:
             raise ValueError(f"{surface.name!r}: its mesh changes its vertex count from frame to frame")
         surface.vertices, surface.faces, surface.corner_normals = new.vertices, new.faces, new.corner_normals
         surface.vertex_map, surface.refined = new.vertex_map, new.refined
-        surface._gradients = None
+        surface._gradients = surface._classes = None
         surface.curvature_radius = curvature_radius(surface.vertices, surface.faces, surface.corner_normals)
         surface.flat = flat_shaded(surface.corner_normals)
         lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)

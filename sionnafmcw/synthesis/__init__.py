@@ -134,12 +134,15 @@ def synthesize(echoes, radar, frame_time: float = 0.0, noise: bool = True, rng=N
     if not np.isfinite(frame_time):
         raise ValueError(f"synthesize: frame_time must be finite, got {frame_time!r}")
     with_phase_noise = radar.phase_noise is not None and (noise if phase_noise is None else bool(phase_noise))
-    echoes = receiver.filter_echoes(echoes, radar)
+    split = method == "nufft" and static_cache is not None and echoes.static_key is not None \
+        and echoes.static_count > 0
+    if not split:   # split: each part through the IF chain by _static_and_dynamic (the static one once)
+        echoes = receiver.filter_echoes(echoes, radar)
     weighted = None
     if method == "nufft":
         if max_error is None and noise:
             max_error = (1.0 - UPSTREAM_SHARE) * noise_error_budget(radar, noise_margin_db)
-        if static_cache is not None and echoes.static_key is not None and echoes.static_count > 0:
+        if split:
             cube, weighted = _static_and_dynamic(echoes, radar, max_error, static_cache, with_phase_noise)
         elif with_phase_noise:
             cube, weighted = beat_nufft(echoes, radar, max_error=max_error, weights=_delay_weights(echoes, radar))
@@ -195,16 +198,21 @@ STATIC_BUDGET_SHARE = 0.1
 
 
 def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: dict, weighted: bool = False):
-    """Noise-free cube :math:`x_S + x_D` (and the delay-weighted cube when ``weighted``, else None): the
-    static block's from ``static_cache`` (or computed and stored), the rest by :func:`beat_nufft`, the
-    budget split by :data:`STATIC_BUDGET_SHARE` (see :func:`synthesize`)."""
+    """Noise-free cube :math:`x_S + x_D` (and the delay-weighted cube when ``weighted``, else None) of
+    ``echoes`` before the IF chain: the static block's from ``static_cache`` (or computed and stored),
+    the rest by :func:`beat_nufft`, the budget split by :data:`STATIC_BUDGET_SHARE` (see
+    :func:`synthesize`). Each part goes through the IF chain (:func:`sionnafmcw.receiver.filter_echoes`,
+    a gain per contribution that depends on that contribution alone) only when its cube is computed:
+    the static block's once per block, not every frame."""
+    from .. import receiver
+
     static_error = None if max_error is None else STATIC_BUDGET_SHARE * max_error
     dynamic_error = None if max_error is None else (1.0 - STATIC_BUDGET_SHARE) * max_error
     entry = static_cache.get(echoes.static_key)
     if (entry is None or entry[1] != static_error or (entry[0] is not radar and entry[0] != radar)
             or (weighted and entry[3] is None)):
         static_cache.clear()  # one cube of memory
-        part = _contributions(echoes, 0, echoes.static_count)
+        part = receiver.filter_echoes(_contributions(echoes, 0, echoes.static_count), radar)
         if weighted:
             cube, cube_w = beat_nufft(part, radar, max_error=static_error, weights=_delay_weights(part, radar))
         else:
@@ -213,7 +221,7 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
     static, static_w = entry[2], entry[3]
     if echoes.static_count == echoes.num_contributions:
         return static, (static_w if weighted else None)
-    part = _contributions(echoes, echoes.static_count)
+    part = receiver.filter_echoes(_contributions(echoes, echoes.static_count), radar)
     if weighted:
         dynamic, dynamic_w = beat_nufft(part, radar, max_error=dynamic_error, weights=_delay_weights(part, radar))
         return static + dynamic, static_w + dynamic_w
