@@ -274,6 +274,30 @@ def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
     fig.savefig(out / "doppler.png", dpi=120)
     plt.close(fig)
     written.append("doppler.png")
+
+    # one frame per class, simulated above real: the side view (forward x, height z), moving points red
+    fig, axes = plt.subplots(2, len(FOLDERS), figsize=(15, 6), sharex=True, sharey=True)
+    for row, (recs, label) in enumerate(((synthetic, "simulated"), (real, "real"))):
+        for ax, c in zip(axes[row], FOLDERS):
+            rec = next((r for r in recs if r.activity == c), None)
+            if rec is None:
+                continue
+            frame = np.asarray(rec.frame)
+            k = np.sort(np.unique(frame))[len(np.unique(frame)) // 2]
+            m = frame == k
+            moving = np.asarray(rec.velocity)[m] != 0
+            x, z = np.asarray(rec.x)[m], np.asarray(rec.z)[m]
+            ax.scatter(x[~moving], z[~moving], s=8, c="0.4", label="static")
+            ax.scatter(x[moving], z[moving], s=12, c="r", label="moving")
+            ax.set_title(f"{label} {c}, frame {k}", fontsize=9)
+            ax.set_xlabel("forward x, m")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("height z, m")
+    axes[0, 0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(out / "frames.png", dpi=110)
+    plt.close(fig)
+    written.append("frames.png")
     return written
 
 
