@@ -1,0 +1,134 @@
+"""The sim-to-real experiment on RadHAR (sionnafmcw.validation.sim_to_real_radhar, .har_classifier):
+the per-frame features against hand-computed values, RadHAR's windows, the session-wise split of
+the real training split, and (slow) the whole experiment at ``--quick`` size: a real synthetic set
+generated on a local Dask cluster, exported in RadHAR's format, trained on and scored on real
+recordings."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from sionnafmcw.ti.formats.radhar import Recording, read_recording
+from sionnafmcw.validation.har_classifier import (WINDOW, WindowClassifier, frame_features, scores,
+                                                  windows)
+from sionnafmcw.validation.sim_to_real_radhar import FOLDERS, main, read_recordings, session_folds, session_of
+
+RADHAR = next((p / "shared" / "realdata" / "radhar" for p in Path(__file__).resolve().parents
+               if (p / "shared" / "realdata" / "radhar").is_dir()), Path("shared/realdata/radhar"))
+needs_radhar = pytest.mark.skipif(not (RADHAR / "train").is_dir(), reason="shared/realdata/radhar is absent")
+
+
+def recording(frames, doppler_bins, ranges, z, y=None, activity="jump", source="s0_20_jump_1.npz"):
+    frame = np.asarray(frames, np.int32)
+    n = frame.size
+    point_id = np.concatenate([np.arange(c) for c in np.bincount(frame)]).astype(np.int32)
+    dbin = np.asarray(doppler_bins, np.int32)
+    r = np.asarray(ranges, np.float32)
+    return Recording(frame=frame, point_id=point_id, x=r, y=np.zeros(n, np.float32) if y is None else
+                     np.asarray(y, np.float32), z=np.asarray(z, np.float32), range=r,
+                     velocity=((dbin - 8) * 0.6147).astype(np.float32), doppler_bin=dbin,
+                     bearing=np.zeros(n, np.float32), intensity=np.full(n, 30, np.float32), stamp=np.zeros(n),
+                     activity=activity, source=source)
+
+
+def test_frame_features_of_a_known_recording():
+    # frame 0: a near leakage point (left out), two static points and two moving ones (bins 10 and 6);
+    # frame 1: no points at all; frame 2: one static point
+    rec = recording([0, 0, 0, 0, 0, 2], [9, 8, 8, 10, 6, 8], [0.1, 2.0, 2.0, 2.2, 2.6, 3.0],
+                    [5.0, 0.0, 0.2, 1.0, 0.4, 0.1], y=[0.0, 0.0, 0.0, 0.3, -0.1, 0.0])
+    f = frame_features(rec)
+    assert f.shape == (3, 2 + 16 + 5)
+    assert f[0, 0] == pytest.approx(np.log1p(4))                       # the near point does not count
+    assert f[0, 1] == pytest.approx(0.5)                                # 2 of 4 move
+    assert f[0, 2 + 8] == pytest.approx(0.5) and f[0, 2 + 10] == pytest.approx(0.25)
+    assert f[0, 2 + 6] == pytest.approx(0.25) and f[0, 2 + 9] == 0      # bin 9 was the near point's
+    k = 18
+    assert f[0, k] == pytest.approx(np.std([1.0, 0.4]), abs=1e-6)      # height spread of the moving points
+    assert f[0, k + 1] == pytest.approx(np.std([0.3, -0.1]), abs=1e-6)
+    assert f[0, k + 2] == pytest.approx(np.std([2.2, 2.6]), abs=1e-6)
+    assert f[0, k + 3] == pytest.approx(2 * 0.6147, rel=1e-5)           # |v| of bins 10 and 6
+    assert f[0, k + 4] == pytest.approx(0.7 - np.mean([0.0, 0.2, 1.0, 0.4]), abs=1e-6)
+    assert not f[1].any()
+    assert f[2, 0] == pytest.approx(np.log1p(1)) and f[2, 1] == 0 and f[2, 2 + 8] == 1
+
+
+def test_radhar_windows_of_60_frames_stride_10():
+    features = np.arange(600 * 2, dtype=np.float32).reshape(600, 2)
+    w = windows(features)
+    assert w.shape == (55, WINDOW, 2)                                   # (600 - 60) / 10 + 1
+    assert np.array_equal(w[1], features[10:70]) and np.array_equal(w[-1], features[540:600])
+    assert windows(features[:59]).shape[0] == 0
+
+
+def test_scores_and_a_classifier_that_separates_what_is_separable():
+    rng = np.random.default_rng(0)
+    y = np.repeat(np.arange(5), 8)
+    x = rng.normal(0, 0.1, (40, 20, 3)).astype(np.float32)
+    x[:, :, 0] += y[:, None]                                            # the class in one feature
+    pred = WindowClassifier(5, steps=150).fit(x, y).predict(x)
+    s = scores(y, pred, list(FOLDERS))
+    assert s["accuracy"] == 1.0 and np.trace(s["confusion"]) == 40
+    s = scores(np.array([0, 0, 1, 1]), np.array([0, 1, 1, 1]), ["a", "b"])
+    assert s["accuracy"] == 0.75 and s["recall"] == {"a": 0.5, "b": 1.0} and s["confusion"] == [[1, 1], [0, 2]]
+
+
+def test_sessions_from_radhar_names():
+    assert session_of("Data/Train/jump/___20_jump_1.txt") == "s3/20_act"
+    assert session_of("Data/Train/walk/__walk_20_4.txt") == "s2/act_20"
+    assert session_of("boxing_20_1.txt") == "s0/act_20"
+    assert session_of("s3_jump_20_1.npz") == "s3/act_20"
+
+
+@needs_radhar
+def test_session_wise_split_of_the_real_training_split():
+    real = read_recordings(RADHAR / "train")
+    folds = session_folds(real)
+    by_session = {}
+    for rec, f in zip(real, folds):
+        by_session.setdefault((rec.activity, session_of(rec.source)), set()).add(f)
+    assert all(len(f) == 1 for f in by_session.values())               # no session in two folds
+    for fold in (0, 1):                                                  # every class tested and trained in each
+        assert {r.activity for r, f in zip(real, folds) if f == fold} == set(FOLDERS)
+
+
+@needs_radhar
+def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
+    with pytest.raises(SystemExit):
+        main(["--real", str(tmp_path / "nope"), "--out", str(tmp_path / "o"), "--synthetic", str(tmp_path)])
+    assert "--real" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o"), "--ablation", "nope"])
+    assert "--ablation: unknown nope" in capsys.readouterr().err
+
+
+@needs_radhar
+@pytest.mark.slow
+def test_quick_experiment_end_to_end(tmp_path, capsys):
+    out = tmp_path / "s2r"
+    assert main(["--real", str(RADHAR / "train"), "--out", str(out), "--quick"]) == 0
+    metrics = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert metrics == json.loads((out / "metrics.json").read_text())
+    # the synthetic set: one recording per class in RadHAR's layout, read back by RadHAR's reader
+    files = sorted((out / "synthetic").glob("*/*.npz"))
+    assert sorted(p.parent.name for p in files) == sorted(FOLDERS)
+    for path in files:
+        rec = read_recording(path)
+        assert rec.activity == path.parent.name and rec.num_points > 0
+        assert set(np.load(path).files) == set(np.load(next((RADHAR / "train").glob("jump/*.npz"))).files)
+    s2r = metrics["sim_to_real"]
+    assert s2r["train_windows"] == 5 and 0 <= s2r["accuracy"] <= 1 and set(s2r["recall"]) == set(FOLDERS)
+    assert np.asarray(s2r["confusion"]).sum() == s2r["windows"] > 0
+    assert 0 <= metrics["real_to_real"]["accuracy"] <= 1
+    assert set(metrics["statistics"]["simulated"]) == set(FOLDERS) == set(metrics["statistics"]["targets"])
+    assert metrics["ablation"]["full"]["accuracy"] == s2r["accuracy"]
+    assert (out / "confusion.png").is_file() and (out / "statistics.md").is_file()
+    # --synthetic reuses the set: nothing is generated, the same training data gives the same scores
+    assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "again"), "--quick",
+                 "--synthetic", str(out / "synthetic")]) == 0
+    again = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert not (tmp_path / "again" / "datasets").exists()
+    assert again["sim_to_real"]["confusion"] == s2r["confusion"]
