@@ -37,7 +37,7 @@ NEAR_RANGE = 0.3
 
 
 def frame_features(recording, num_doppler: int = 16, near_range: float = NEAR_RANGE) -> np.ndarray:
-    """``[frames, 2 + num_doppler + 5]`` features of every frame ``0 .. max(frame)`` of ``recording``
+    """``[frames, 2 + num_doppler + 5]`` features of every frame from 0 to ``max(frame)`` of ``recording``
     (module docstring); a frame without points has all-zero features."""
     frame = np.asarray(recording.frame)
     num_frames = int(frame.max()) + 1 if frame.size else 0
