@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from faults import assert_same_store, fault_log, leftovers, sionnafmcw
+from faults import assert_same_store, fault_log, leftovers, sionnafmcw, wait_for
 from sionnafmcw import dataset
 
 RADAR = {"preset": "walk-77ghz", "num_chirps": 16, "num_samples": 64}
@@ -28,15 +28,6 @@ SPEC = {"name": "plates", "scenario": "moving_plate", "count": 4, "seed": 4, "ra
         "engine_options": {"scattering_coefficient": 0.5},
         "parameters": {"speed": {"uniform": [0.5, 2.0]}, "start_range": 3.0, "num_frames": 2}}
 DASK = str(Path(sys.executable).parent / "dask")
-
-
-def _wait_for(predicate, timeout, what):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 @pytest.fixture
@@ -59,7 +50,7 @@ def cluster(tmp_path):
     try:
         start("scheduler", [DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                             "--scheduler-file", str(file)])
-        _wait_for(file.exists, 60, "the scheduler file")
+        wait_for(file.exists, 60, "the scheduler file")
         address = json.loads(file.read_text())["address"]
         for name in ("w1", "w2"):
             workdir = tmp_path / "workers" / name

@@ -34,7 +34,7 @@ from pathlib import Path
 import pytest
 from distributed import SchedulerPlugin
 
-from faults import sionnafmcw
+from faults import sionnafmcw, wait_for
 from sionnafmcw import dataset
 
 DELAY = 0.3  # s, the scheduler's answer to a heartbeat
@@ -197,15 +197,6 @@ def test_guide_spec_on_the_local_cluster_prints_no_traceback(tmp_path, monkeypat
             assert any(cold.iterdir()), "the first run compiled no kernel into the empty cache"
 
 
-def _wait_for(predicate, timeout, what):
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        if predicate():
-            return
-        time.sleep(0.2)
-    raise AssertionError(f"timed out waiting for {what}")
-
-
 @pytest.fixture
 def external_cluster(tmp_path):
     """``(address, logs)``: ``dask scheduler`` and two ``dask worker`` processes on 127.0.0.1 (nannies,
@@ -227,7 +218,7 @@ def external_cluster(tmp_path):
     try:
         start("scheduler", [DASK, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
                             "--scheduler-file", str(file)])
-        _wait_for(file.exists, 60, "the scheduler file")
+        wait_for(file.exists, 60, "the scheduler file")
         address = json.loads(file.read_text())["address"]
         for name in ("w1", "w2"):
             workdir = tmp_path / "workers" / name
