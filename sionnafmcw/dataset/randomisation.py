@@ -21,9 +21,10 @@ from ..scenes.radhar import CLASSES
 
 #: ``{parameter: (draw, why)}``: scenario parameters of ``radhar``.
 RADHAR_RANGES = {
-    "person_range": ({"uniform": [1.0, 4.0]}, "RadHAR's subjects stood 1.5-3 m from the sensor (its README; the "
-                     "real recordings' moving points: per-recording median 1.2-2.5 m); 1-4 m covers it with margin "
-                     "and stays inside the IWR1443 short-range .cfg's reach (10.5 m at 240 samples x 0.0436 m)"),
+    "person_range": ({"uniform": [1.0, 3.0]}, "RadHAR's subjects stood in front of the sensor at arm's length to a "
+                     "few metres: the real recordings' moving points lie at a per-recording median of 1.2-2.5 m; "
+                     "1-3 m covers that with margin. Farther people are a different data set: at 3.8 m the "
+                     "IWR1443 short-range .cfg's CFAR keeps the walls and loses the person"),
     "person_azimuth": ({"uniform": [-0.6, 0.6]}, "+-34 degrees: the real moving points' median azimuth lies within "
                        "-18..+32 degrees per recording"),
     "heading_offset": ({"uniform": [-0.5, 0.5]}, "+-29 degrees from facing the sensor (a walk: from crossing its line "
@@ -49,8 +50,9 @@ RADHAR_RANGES = {
                      "height of the person)"),
     "radar_tilt": ({"uniform": [-0.1, 0.2]}, "-6 to +11 degrees: mounted level by eye, slightly down for a tall "
                    "mount"),
-    "room_margin": ({"uniform": [1.5, 3.5]}, "free space around the person and the sensor: rooms of about "
-                    "4 x 4 m to 9 x 8 m; the real static returns reach 5.2 m (95th percentile), the far wall"),
+    "room_margin": ({"uniform": [1.0, 2.5]}, "free space around the person and the sensor: rooms of about "
+                    "3 x 3 m to 8 x 7 m; the real static returns reach 5.2 m (95th percentile), the far wall, "
+                    "which the 1-3 m person range with these margins spans"),
     "room_height": ({"uniform": [2.5, 3.2]}, "ceilings of offices and labs"),
     "wall_material": ({"choice": ["concrete", "plasterboard", "wood", "glass", "chipboard"]},
                       "every wall material the ITU model gives at 77 GHz"),
