@@ -128,7 +128,12 @@ MIN_SEGMENT_LENGTH_MODULES = (_image_method, _candidate_generator, _deterministi
 
 
 def set_thread_count(threads: int) -> None:
-    """Size of Dr.Jit's thread pool in this process (the LLVM backend's worker threads)."""
+    """Size of Dr.Jit's thread pool in this process (the LLVM backend's worker threads).
+
+    The LLVM backend launches kernels asynchronously into that pool; the calling thread's kernels
+    still in flight are waited for first (``dr.sync_thread``), so that no worker is stopped or
+    started under a running kernel."""
+    dr.sync_thread()
     dr.set_thread_count(int(threads))
 
 

@@ -65,8 +65,10 @@ def execute(name: str, out: Path) -> nbformat.NotebookNode:
     an error in a cell is kept as an ``error`` output (the tests assert there is none)."""
     nb = nbformat.read(NOTEBOOK_DIR / name, as_version=4)
     with pytest.MonkeyPatch.context() as env:   # the kernel inherits the environment
+        # PYTHONFAULTHANDLER: a kernel that dies of a fatal signal prints every thread's Python stack
+        # to the captured stderr (nbclient itself only reports "Kernel died")
         for key, value in (("SIONNAFMCW_NOTEBOOK_QUICK", "1"), ("SIONNAFMCW_NOTEBOOK_OUT", str(out)),
-                           ("MPLBACKEND", "Agg")):
+                           ("MPLBACKEND", "Agg"), ("PYTHONFAULTHANDLER", "1")):
             env.setenv(key, value)
         client = NotebookClient(nb, timeout=900, kernel_name="python3", allow_errors=True,
                                 resources={"metadata": {"path": str(NOTEBOOK_DIR)}})
