@@ -96,6 +96,32 @@ def test_session_wise_split_of_the_real_training_split():
 
 
 @needs_radhar
+def test_a_few_recordings_per_class_span_its_sessions():
+    """``read_recordings(root, 2)``: two recordings of each class from two of its sessions (every class
+    of the training split has more than one), in the reader's order, so that the session-wise ceiling
+    has a session to test on that its training did not see."""
+    every = read_recordings(RADHAR / "train")
+    few = read_recordings(RADHAR / "train", 2)
+    chosen = {r.source for r in few}
+    assert [r.source for r in few] == [r.source for r in every if r.source in chosen]
+    for cls in FOLDERS:
+        recs = [r for r in few if r.activity == cls]
+        assert len(recs) == 2 and len({session_of(r.source) for r in recs}) == 2, cls
+
+
+def test_classifier_threads_are_restored_and_checked():
+    import torch
+
+    before = torch.get_num_threads()
+    rng = np.random.default_rng(1)
+    x, y = rng.normal(size=(10, 4, 3)).astype(np.float32), np.arange(10) % 5
+    WindowClassifier(5, steps=2).fit(x, y).predict(x)
+    assert torch.get_num_threads() == before
+    with pytest.raises(ValueError, match="threads must be"):
+        WindowClassifier(5, threads=0)
+
+
+@needs_radhar
 def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--real", str(tmp_path / "nope"), "--out", str(tmp_path / "o"), "--synthetic", str(tmp_path)])

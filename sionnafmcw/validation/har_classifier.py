@@ -14,6 +14,12 @@ a few thousand weights, trained in seconds on a CPU. Its input is standardised b
 standard deviation of the *training* windows' features only (so a model trained on simulated data
 never sees a statistic of the real data).
 
+Training and prediction run on one CPU thread by default (``threads=1``): a batch of this model is a
+few small matrix products, too small for intra-op parallelism to pay for its synchronisation, and on
+a machine whose cores are busy with other work PyTorch's waiting threads cost far more than they
+give (``benchmarks/har_classifier_threads.py``); one thread also makes the result the same on every
+machine, whatever its core count (a parallel reduction sums in another order).
+
 Per frame :math:`t` (the points beyond ``near_range``, 0.3 m: the leakage/DC detections every real
 frame has near the sensor say nothing of the person):
 
@@ -26,6 +32,8 @@ frame has near the sensor say nothing of the person):
   (the moving part of the body above or below the static rest).
 """
 from __future__ import annotations
+
+from contextlib import contextmanager
 
 import numpy as np
 
@@ -99,13 +107,33 @@ def recording_windows(recordings, classes, window: int = WINDOW, stride: int = S
 
 
 class WindowClassifier:
-    """The 1-D CNN of the module docstring, with its input standardisation; :meth:`fit`, :meth:`predict`."""
+    """The 1-D CNN of the module docstring, with its input standardisation; :meth:`fit`, :meth:`predict`.
+
+    ``threads``: PyTorch's intra-op CPU threads while fitting and predicting (restored afterwards);
+    ``None`` leaves PyTorch's setting (module docstring: why 1)."""
 
     def __init__(self, num_classes: int, hidden: int = 32, steps: int = 300, batch_size: int = 128,
-                 learning_rate: float = 3e-3, weight_decay: float = 1e-3, dropout: float = 0.2, seed: int = 0):
+                 learning_rate: float = 3e-3, weight_decay: float = 1e-3, dropout: float = 0.2, seed: int = 0,
+                 threads: int | None = 1):
         self.num_classes, self.hidden, self.steps, self.batch_size = int(num_classes), int(hidden), int(steps), int(batch_size)
         self.learning_rate, self.weight_decay, self.dropout, self.seed = learning_rate, weight_decay, dropout, seed
+        if threads is not None and (isinstance(threads, bool) or int(threads) < 1):
+            raise ValueError(f"WindowClassifier: threads must be an integer >= 1 or None, got {threads!r}")
+        self.threads = None if threads is None else int(threads)
         self.model = None
+
+    @contextmanager
+    def _torch_threads(self):
+        """PyTorch's intra-op threads set to :attr:`threads` inside the block, restored after it."""
+        import torch
+
+        before = torch.get_num_threads()
+        if self.threads is not None:
+            torch.set_num_threads(self.threads)
+        try:
+            yield
+        finally:
+            torch.set_num_threads(before)
 
     def _build(self, num_features: int):
         import torch
@@ -127,10 +155,14 @@ class WindowClassifier:
     def fit(self, x: np.ndarray, y: np.ndarray) -> "WindowClassifier":
         """Train on windows ``x [n, time, F]`` with labels ``y [n]``: ``steps`` Adam steps on random
         batches of ``batch_size`` windows (all of them when fewer), class-balanced cross-entropy."""
-        import torch
-
         if len(x) == 0:
             raise ValueError("no training windows")
+        with self._torch_threads():
+            return self._fit(x, y)
+
+    def _fit(self, x: np.ndarray, y: np.ndarray) -> "WindowClassifier":
+        import torch
+
         torch.manual_seed(self.seed)
         self.mean = x.reshape(-1, x.shape[-1]).mean(0)
         self.std = x.reshape(-1, x.shape[-1]).std(0) + 1e-6
@@ -157,7 +189,7 @@ class WindowClassifier:
         """Class index of every window of ``x``."""
         import torch
 
-        with torch.no_grad():
+        with self._torch_threads(), torch.no_grad():
             out = self.model(torch.as_tensor((x - self.mean) / self.std, dtype=torch.float32))
         return out.argmax(1).numpy()
 

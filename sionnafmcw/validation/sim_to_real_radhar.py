@@ -128,18 +128,32 @@ QUICK = {"items": 5, "frames": 10, "window": 10, "stride": 10, "engine_options":
 
 
 def read_recordings(root: Path, per_class: int | None = None) -> list:
-    """The RadHAR recordings under ``root`` (``.npz`` or text dumps), at most ``per_class`` of each class."""
+    """The RadHAR recordings under ``root`` (``.npz`` or text dumps), in the reader's order; with
+    ``per_class``, at most that many of each class, taken from its sessions (:func:`session_of`) in
+    turn, so that a few recordings still span several sessions and the session-wise ceiling
+    (:func:`real_to_real`) has sessions to test on that its training did not see."""
     from ..ti.formats.radhar import read_dataset
 
-    out, seen = [], {}
-    for rec in read_dataset(root):
+    recordings = list(read_dataset(root))
+    for rec in recordings:
         if rec.activity not in FOLDERS:
             raise ValueError(f"{root}: recording {rec.source} has activity {rec.activity!r}, not one of "
                              f"{', '.join(FOLDERS)} (RadHAR's folders)")
-        if per_class is None or seen.get(rec.activity, 0) < per_class:
-            out.append(rec)
-            seen[rec.activity] = seen.get(rec.activity, 0) + 1
-    return out
+    if per_class is None:
+        return recordings
+    queues: dict = {}                                   # class -> session -> its recordings, in order
+    for i, rec in enumerate(recordings):
+        queues.setdefault(rec.activity, {}).setdefault(session_of(rec.source), []).append(i)
+    chosen = set()
+    for sessions in queues.values():
+        turn = [list(q) for _, q in sorted(sessions.items())]
+        picked: list = []
+        while len(picked) < per_class and any(turn):
+            for q in turn:
+                if q and len(picked) < per_class:
+                    picked.append(q.pop(0))
+        chosen.update(picked)
+    return [rec for i, rec in enumerate(recordings) if i in chosen]
 
 
 def sim_to_real(synthetic: list, real: list, window: int, stride: int, seed: int = 0) -> dict:
@@ -230,15 +244,12 @@ def doppler_histograms(recordings, near_range: float = 0.3) -> dict:
     return out
 
 
-def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
-    """Confusion matrices (sim-to-real, real-to-real) and the Doppler histograms per class, as PNGs."""
-    import matplotlib
-
-    matplotlib.use("Agg")
+def confusion_figure(metrics: dict):
+    """The confusion matrices of ``metrics["sim_to_real"]`` and ``metrics["real_to_real"]`` side by
+    side, each row (a true class) as shares of its real windows; a matplotlib ``Figure``."""
     import matplotlib.pyplot as plt
     import numpy as np
 
-    written = []
     fig, axes = plt.subplots(1, 2, figsize=(9, 4))
     for ax, key, title in ((axes[0], "sim_to_real", "trained on simulated"),
                            (axes[1], "real_to_real", "trained on real (other sessions)")):
@@ -255,9 +266,14 @@ def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
         ax.set_ylabel("true (real windows)")
         ax.set_title(f"{title}: {metrics[key]['accuracy']:.2f}", fontsize=10)
     fig.tight_layout()
-    fig.savefig(out / "confusion.png", dpi=120)
-    plt.close(fig)
-    written.append("confusion.png")
+    return fig
+
+
+def doppler_figure(synthetic: list, real: list):
+    """The Doppler histograms per class (:func:`doppler_histograms`), simulated against real, on the
+    radial-velocity axis of RadHAR's Doppler bins; a matplotlib ``Figure``."""
+    import matplotlib.pyplot as plt
+    import numpy as np
 
     sim_h, real_h = doppler_histograms(synthetic), doppler_histograms(real)
     fig, axes = plt.subplots(1, len(FOLDERS), figsize=(15, 3), sharey=True)
@@ -271,11 +287,15 @@ def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
     axes[0].set_ylabel("share of points (range > 0.3 m)")
     axes[0].legend(fontsize=8)
     fig.tight_layout()
-    fig.savefig(out / "doppler.png", dpi=120)
-    plt.close(fig)
-    written.append("doppler.png")
+    return fig
 
-    # one frame per class, simulated above real: the side view (forward x, height z), moving points red
+
+def frames_figure(synthetic: list, real: list):
+    """One frame per class, simulated above real: the side view (forward x, height z) of the middle
+    frame of each class's first recording, moving points red; a matplotlib ``Figure``."""
+    import matplotlib.pyplot as plt
+    import numpy as np
+
     fig, axes = plt.subplots(2, len(FOLDERS), figsize=(15, 6), sharex=True, sharey=True)
     for row, (recs, label) in enumerate(((synthetic, "simulated"), (real, "real"))):
         for ax, c in zip(axes[row], FOLDERS):
@@ -295,9 +315,24 @@ def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
         ax.set_ylabel("height z, m")
     axes[0, 0].legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(out / "frames.png", dpi=110)
-    plt.close(fig)
-    written.append("frames.png")
+    return fig
+
+
+def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
+    """:func:`confusion_figure`, :func:`doppler_figure` and :func:`frames_figure` as PNGs in ``out``
+    (``confusion.png``, ``doppler.png``, ``frames.png``); returns their names."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    written = []
+    for name, fig, dpi in (("confusion.png", confusion_figure(metrics), 120),
+                           ("doppler.png", doppler_figure(synthetic, real), 120),
+                           ("frames.png", frames_figure(synthetic, real), 110)):
+        fig.savefig(Path(out) / name, dpi=dpi)
+        plt.close(fig)
+        written.append(name)
     return written
 
 
