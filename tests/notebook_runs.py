@@ -26,12 +26,13 @@ EXPECTED = [
     "04_dataset_dask_tensorflow.ipynb",
     "05_people_activities.ipynb",
     "06_ti_point_cloud.ipynb",
+    "07_sim_to_real_radhar.ipynb",
 ]
 
 
 def radhar_folder() -> Path | None:
-    """RadHAR's real recordings as ``06_ti_point_cloud`` finds them: ``SIONNAFMCW_RADHAR``, else
-    ``shared/realdata/radhar`` beside or above the repository."""
+    """RadHAR's real recordings as ``06_ti_point_cloud`` and ``07_sim_to_real_radhar`` find them:
+    ``SIONNAFMCW_RADHAR``, else ``shared/realdata/radhar`` beside or above the repository."""
     given = os.environ.get("SIONNAFMCW_RADHAR")
     if given:
         return Path(given)
@@ -51,7 +52,7 @@ def _radhar_missing() -> str | None:
 
 #: Data a notebook needs that the repository does not hold: ``{name: check}``, the check returning
 #: why it is missing (None: present).
-NEEDS = {"06_ti_point_cloud.ipynb": _radhar_missing}
+NEEDS = {"06_ti_point_cloud.ipynb": _radhar_missing, "07_sim_to_real_radhar.ipynb": _radhar_missing}
 
 
 def missing_data(name: str) -> str | None:

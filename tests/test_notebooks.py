@@ -75,3 +75,43 @@ def test_ti_notebook_writes_what_the_real_recordings_reader_reads(executed_noteb
     images = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
               if "image/png" in o.get("data", {})]
     assert len(images) >= 3          # the scene, simulated next to real, the range CFAR
+
+
+def test_sim_to_real_notebook_exports_radhar_files_and_scores_every_class(executed_notebooks):
+    """07: the synthetic set it exported is one RadHAR ``.npz`` per class (QUICK: one item of 5 frames
+    each) that RadHAR's reader reads, with the real recordings' arrays; its classifier was scored on
+    real windows of all five classes (confusion matrix 5 x 5, every row a class with real windows,
+    its sum the windows scored) and the ceiling tested too; the notebook shows the figures."""
+    import json
+
+    import numpy as np
+
+    from notebook_runs import radhar_folder
+    from sionnafmcw.ti.formats.radhar import read_dataset
+    from sionnafmcw.validation.sim_to_real_radhar import FOLDERS
+
+    name = "07_sim_to_real_radhar.ipynb"
+    if missing_data(name):
+        pytest.skip(missing_data(name))
+    nb, out = executed_notebooks[name]
+    files = sorted((out / "synthetic").glob("*/*.npz"))
+    assert sorted(p.parent.name for p in files) == sorted(FOLDERS)
+    recordings = list(read_dataset(out / "synthetic"))
+    assert sorted(r.activity for r in recordings) == sorted(FOLDERS)
+    for rec in recordings:
+        assert rec.num_points > 0 and set(rec.frame.tolist()) <= set(range(5))
+    real_file = sorted((radhar_folder() / "train" / "jump").glob("*.npz"))[0]
+    with np.load(files[0]) as sim, np.load(real_file) as real:
+        assert sorted(sim.files) == sorted(real.files)
+    metrics = json.loads((out / "metrics.json").read_text())
+    for key in ("sim_to_real", "real_to_real"):
+        confusion = np.asarray(metrics[key]["confusion"])
+        assert confusion.shape == (5, 5) and confusion.sum() == metrics[key]["windows"] > 0, key
+        assert set(metrics[key]["recall"]) == set(FOLDERS), key
+        assert 0 <= metrics[key]["accuracy"] <= 1, key
+    assert np.asarray(metrics["sim_to_real"]["confusion"]).sum(1).all()     # every class has real windows
+    assert metrics["sim_to_real"]["train_windows"] == 5
+    assert set(metrics["statistics"]["simulated"]) == set(FOLDERS) == set(metrics["statistics"]["real"])
+    images = [o for c in nb.cells if c.cell_type == "code" for o in c.get("outputs", [])
+              if "image/png" in o.get("data", {})]
+    assert len(images) >= 3          # frames side by side, Doppler histograms, confusion matrices
