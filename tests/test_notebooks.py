@@ -77,7 +77,7 @@ def test_ti_notebook_writes_what_the_real_recordings_reader_reads(executed_noteb
     assert len(images) >= 3          # the scene, simulated next to real, the range CFAR
 
 
-def test_sim_to_real_notebook_exports_radhar_files_and_scores_every_class(executed_notebooks):
+def test_notebook_07_exports_radhar_files_and_scores_every_class(executed_notebooks):
     """07: the synthetic set it exported is one RadHAR ``.npz`` per class (QUICK: one item of 5 frames
     each) that RadHAR's reader reads, with the real recordings' arrays; its classifier was scored on
     real windows of all five classes (confusion matrix 5 x 5, every row a class with real windows,
