@@ -74,6 +74,9 @@ nb_execution_timeout = 900
 nb_execution_raise_on_error = True
 nb_execution_in_temp = True
 nb_merge_streams = True
+# Markdown a cell displays (IPython.display.Markdown: the tables of sionnafmcw's reports) parsed as
+# MyST, like the pages; myst-nb's default, CommonMark, has no tables
+nb_render_markdown_format = "myst"
 
 # ---------------------------------------------------------------- maths: MathJax from the site itself
 def _mathjax_dir() -> Path | None:
