@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from sionnafmcw.ti.formats.radhar import Recording, read_recording
+from sionnafmcw.ti.formats.radhar import Recording, read_recording, write_npz
 from sionnafmcw.validation.har_classifier import (WINDOW, WindowClassifier, frame_features, scores,
                                                   windows)
 from sionnafmcw.validation.sim_to_real_radhar import FOLDERS, main, read_recordings, session_folds, session_of
@@ -129,6 +129,14 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o"), "--ablation", "nope"])
     assert "--ablation: unknown nope" in capsys.readouterr().err
+    # a synthetic set shorter than a window: one line naming the folder and the shortfall, no traceback
+    short = tmp_path / "short"
+    (short / "jump").mkdir(parents=True)
+    write_npz(short / "jump" / "s0_20_jump_1.npz", recording([0, 1, 2, 3, 4], [8] * 5, [2.0] * 5, [0.0] * 5))
+    assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o2"), "--quick",
+                 "--synthetic", str(short)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(short) in err and "at most 5 frames, fewer than a window of 10" in err
 
 
 @needs_radhar

@@ -157,11 +157,16 @@ def read_recordings(root: Path, per_class: int | None = None) -> list:
 
 
 def sim_to_real(synthetic: list, real: list, window: int, stride: int, seed: int = 0) -> dict:
-    """Train on the windows of the ``synthetic`` recordings, score every window of ``real``."""
+    """Train on the windows of the ``synthetic`` recordings, score every window of ``real``; a
+    ``ValueError`` naming the shortfall when no synthetic recording is as long as a window."""
     from .har_classifier import WindowClassifier, recording_windows, scores
 
     classes = list(FOLDERS)
     xs, ys, _ = recording_windows(synthetic, classes, window, stride)
+    if not len(xs):
+        longest = max((r.num_frames for r in synthetic), default=0)
+        raise ValueError(f"the synthetic recordings have at most {longest} frames, fewer than a window of "
+                         f"{window}: give a set of items of at least {window} frames")
     xr, yr, _ = recording_windows(real, classes, window, stride)
     model = WindowClassifier(len(classes), seed=seed).fit(xs, ys)
     result = scores(yr, model.predict(xr), classes)
@@ -385,7 +390,12 @@ def main(argv=None) -> int:
         return 2
     t_generate = time.perf_counter() - t0
     window, stride = size["window"], size["stride"]
-    metrics = {"sim_to_real": sim_to_real(synthetic, real, window, stride),
+    try:
+        s2r = sim_to_real(synthetic, real, window, stride)
+    except ValueError as e:
+        print(f"sim_to_real_radhar: {synthetic_dir}: {e}", file=sys.stderr)
+        return 2
+    metrics = {"sim_to_real": s2r,
                "real_to_real": real_to_real(real, window, stride),
                "statistics": statistics(synthetic, real),
                "ablation": {},
