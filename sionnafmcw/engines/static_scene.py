@@ -121,34 +121,72 @@ class Spheres:
             radii.append(float(np.max(np.linalg.norm(v - c, axis=-1))) * (1 + 1e-6) + 1e-6)
         return cls(np.reshape(np.asarray(centres, float), (-1, 3)), np.asarray(radii, float))
 
+    def clusters(self) -> list[np.ndarray]:
+        """The spheres in groups that touch (indices per group): the connected components of the graph
+        whose edges join two spheres that overlap, :math:`|\mathbf c_i - \mathbf c_j| \le r_i + r_j`.
+        A body's parts overlap at its joints, so each person is one group and people apart are apart."""
+        from scipy.sparse.csgraph import connected_components
+
+        gap = np.linalg.norm(self.centre[:, None] - self.centre[None], axis=-1)
+        count, label = connected_components(gap <= self.radius[:, None] + self.radius[None], directed=False)
+        return [np.flatnonzero(label == g) for g in range(count)]
+
     def meet(self, origins, directions, lengths) -> np.ndarray:
         r"""``[P]`` bool: the segments :math:`\mathbf o + t\hat{\mathbf k}`, :math:`0 \le t \le \ell`
         (``lengths`` may be ``inf``; ``directions`` unit) that pass through a sphere: with
         :math:`t_c = (\mathbf c - \mathbf o)\cdot\hat{\mathbf k}` and :math:`d^2 = |\mathbf c - \mathbf o|^2 - t_c^2`,
-        :math:`d \le r` and :math:`[t_c - h, t_c + h]` (:math:`h = \sqrt{r^2 - d^2}`) meets :math:`[0, \ell]`."""
+        :math:`d \le r` and :math:`[t_c - h, t_c + h]` (:math:`h = \sqrt{r^2 - d^2}`) meets :math:`[0, \ell]`.
+
+        A two-level hierarchy of bounding spheres: every segment is tested against the sphere around
+        each group of touching spheres (:meth:`clusters`: one per person), and only the segments that
+        meet a group's sphere against its members. A segment that passes through a member passes
+        through the group's sphere, which holds the member, so the answer is the test of every sphere;
+        the cost is (segments x groups) plus (the few segments near a person x its parts) instead of
+        (segments x spheres)."""
         o = np.asarray(origins, float)
         k = np.asarray(directions, float)
         length = np.broadcast_to(np.asarray(lengths, float), (len(o),))
         out = np.zeros(len(o), dtype=bool)
         if len(o) == 0 or len(self.radius) == 0:
             return out
-        # first the sphere around all the spheres, then every sphere on the segments that meet it, at once:
-        # t_c = c.k - o.k and |c - o|^2 = |o|^2 - 2 c.o + |c|^2 as [P, K] products with the centres
-        lo, hi = (self.centre - self.radius[:, None]).min(axis=0), (self.centre + self.radius[:, None]).max(axis=0)
-        c_all = 0.5 * (lo + hi)
-        r_all = float(np.max(np.linalg.norm(self.centre - c_all, axis=-1) + self.radius))
-        idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all)) if len(self.radius) > 1 else np.arange(len(o))
-        if idx.size == 0:
-            return out
-        o, k, length = o[idx], k[idx], length[idx]
-        c = self.centre - c_all                     # about the joint centre: |o|, |c| of metres, not of the room
-        o = o - c_all
-        tc = k @ c.T - np.einsum("pi,pi->p", o, k)[:, None]
-        d2 = (np.einsum("pi,pi->p", o, o)[:, None] - 2.0 * (o @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
-        r2 = (self.radius ** 2)[None]
-        h = np.sqrt(np.clip(r2 - d2, 0.0, None))
-        out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= length[:, None]), axis=1)
+        for members in self.clusters():
+            centre, radius = self.centre[members], self.radius[members]
+            if len(members) == 1:
+                out |= _meet_one(o, k, length, centre[0], float(radius[0]))
+                continue
+            lo, hi = (centre - radius[:, None]).min(axis=0), (centre + radius[:, None]).max(axis=0)
+            c_all = 0.5 * (lo + hi)
+            r_all = float(np.max(np.linalg.norm(centre - c_all, axis=-1) + radius))
+            idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all) & ~out)
+            if idx.size == 0:
+                continue
+            # every member at once on the segments that meet the group's sphere: t_c = c.k - o.k and
+            # |c - o|^2 = |o|^2 - 2 c.o + |c|^2 as [P, K] products, about the group's centre (metres, not the room's)
+            oi, ki, li = o[idx] - c_all, k[idx], length[idx]
+            c = centre - c_all
+            tc = ki @ c.T - np.einsum("pi,pi->p", oi, ki)[:, None]
+            d2 = (np.einsum("pi,pi->p", oi, oi)[:, None] - 2.0 * (oi @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
+            r2 = (radius ** 2)[None]
+            h = np.sqrt(np.clip(r2 - d2, 0.0, None))
+            out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= li[:, None]), axis=1)
         return out
+
+
+def shared_rows(record) -> None:
+    """Replace every array field ``[P, ...]`` of the dataclass ``record`` whose rows are all bit for bit
+    the same by a read-only broadcast view of one row: the same values, one row of memory.
+
+    A static render holds many such fields (on the first bounce the image source, the identity mirror
+    map, the unit chain reflection; on every bounce the zero velocities and, on flat surfaces, the
+    zero shape operator): about a third of the first bounce's bytes. Selecting samples
+    (:meth:`~sionnafmcw.engines.po_render.Render.select`) gives ordinary arrays again."""
+    for name in record.__dataclass_fields__:
+        x = getattr(record, name)
+        if not isinstance(x, np.ndarray) or x.ndim == 0 or len(x) < 2 or x.dtype.hasobject or x.strides[0] == 0:
+            continue
+        rows = np.ascontiguousarray(x).view(np.uint8).reshape(len(x), -1)
+        if np.all(rows == rows[:1]):
+            object.__setattr__(record, name, np.broadcast_to(x[0].copy(), x.shape))
 
 
 def _meet_one(o, k, length, c, r) -> np.ndarray:
@@ -272,6 +310,9 @@ class StaticPO:
                 cells.append((merged.cell, merged.tau, merged.doppler, merged.labels))
                 parts.append(Echoes(merged.a, merged.tau, merged.doppler, merged.labels))
         echoes = None if not parts else (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
+        for b in renders:   # held for every frame of the pose: what is the same for all samples, once
+            shared_rows(b)
+            shared_rows(b.samples)
         return cls(renders, keep, incident, outgoing, cells, echoes)
 
     @property
@@ -343,4 +384,4 @@ class StaticPO:
 
 
 __all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
-           "moving_objects"]
+           "moving_objects", "shared_rows"]

@@ -1,0 +1,127 @@
+r"""Cost of the static block per steady frame, and the run's peak memory: tree A against tree B.
+
+What it measures: :func:`sionnafmcw.simulation.simulate` of a scene (``--scene``, default the
+``circle_walk`` scene built with ``--frames`` frames) with radar ``walk-77ghz`` and the path
+engine's defaults (the static scene cached per pose, the multi-bounce rule on), frames
+``0 .. --frames - 1``, in a subprocess per run (``--worker``) that imports ``sionnafmcw`` from its
+tree (``--tree-a``: a checkout, e.g. ``git archive 96945cb | tar -x -C /tmp/treeA``; ``--tree-b``
+default this one), limiting glibc to one arena first as the command line does. A and B alternate
+(``--rounds`` pairs, the order swapped every round) so that the machine's load hits them alike.
+Per run: wall and CPU seconds (user + system, every thread) of frame 0 (scene load, the static
+block rendered and its beat cube synthesised once) and per steady frame (1 ..), the peak resident
+size (``ru_maxrss``, MiB), the static block's PO samples; B's last beat cube against A's of the same
+round (largest difference over A's largest magnitude: 0 when the echoes are bit for bit the same).
+
+    PYTHONPATH=. python benchmarks/static_block.py --tree-a /tmp/treeA [--scene DIR] [--frames 24] [--rounds 2]
+
+Measured
+--------
+See the module docstring of :mod:`sionnafmcw.engines.static_scene` (*Cost*).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def _cpu() -> float:
+    u = resource.getrusage(resource.RUSAGE_SELF)
+    return u.ru_utime + u.ru_stime
+
+
+def worker(spec: dict) -> dict:
+    import sionnafmcw.heap as heap
+
+    heap.limit_arenas(1)
+    import numpy as np
+
+    import sionnafmcw as sf
+    from sionnafmcw import engines
+
+    anim = sf.load_animation(spec["scene"])
+    engine = engines.create("path")
+    store = Path(spec["out"]) / "run.zarr"
+    c0, t0 = _cpu(), time.perf_counter()
+    sf.simulate(anim, "walk-77ghz", engine=engine, out=store, frames=range(0, 1), progress=False)
+    c1, t1 = _cpu(), time.perf_counter()
+    n = spec["frames"]
+    run = sf.simulate(anim, "walk-77ghz", engine=engine, out=store, frames=range(1, n), progress=False)
+    c2, t2 = _cpu(), time.perf_counter()
+    np.save(Path(spec["out"]) / "cube.npy", np.asarray(run.cube(n - 1)))
+    figures = engine.stats[0].figures if getattr(engine, "stats", None) else {}
+    return {"first_wall": t1 - t0, "first_cpu": c1 - c0, "wall": (t2 - t1) / (n - 1), "cpu": (c2 - c1) / (n - 1),
+            "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
+            "static_po_samples": int(figures.get("static_po_samples", 0))}
+
+
+def launch(tree: Path, spec: dict) -> dict:
+    with tempfile.NamedTemporaryFile("r", suffix=".json", delete=False) as fh:
+        result = fh.name
+    env = os.environ | {"PYTHONPATH": os.pathsep.join([str(tree), str(REPO / "benchmarks")])}
+    cmd = [sys.executable, str(Path(__file__).resolve()), "--worker", json.dumps(spec), "--result", result]
+    proc = subprocess.run(cmd, env=env, cwd=tree, stdout=sys.stderr, stderr=sys.stderr)
+    text = Path(result).read_text()
+    os.unlink(result)
+    if proc.returncode != 0 or not text:
+        raise SystemExit(f"worker {spec['label']} failed (exit status {proc.returncode}); its output is above")
+    return json.loads(text)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--tree-a", required=True, help="checkout of the baseline (A)")
+    p.add_argument("--tree-b", default=str(REPO), help="checkout of the change (B, default this one)")
+    p.add_argument("--scene", default=None, help="animation directory (default: circle_walk built with --frames)")
+    p.add_argument("--frames", type=int, default=24)
+    p.add_argument("--rounds", type=int, default=2)
+    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+    args = p.parse_args(argv)
+    if args.worker:
+        Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+        return 0
+    import numpy as np
+
+    work = Path(tempfile.mkdtemp(prefix="static_block_"))
+    scene = args.scene
+    if scene is None:
+        from sionnafmcw import scenes
+
+        scene = str(work / "circle_walk")
+        scenes.build("circle_walk", scene, num_frames=args.frames)
+    trees = {"A": Path(args.tree_a).resolve(), "B": Path(args.tree_b).resolve()}
+    print(f"{'run':4s} {'first wall':>10s} {'first cpu':>9s} {'wall/fr':>8s} {'cpu/fr':>7s} {'peak MiB':>8s} "
+          f"{'static PO':>9s}  B vs A cube")
+    rows = {"A": [], "B": []}
+    for r in range(args.rounds):
+        cubes = {}
+        for name in ("A", "B") if r % 2 == 0 else ("B", "A"):
+            out = work / f"{name}{r}"
+            res = launch(trees[name], {"label": f"{name}{r}", "scene": scene, "frames": args.frames, "out": str(out)})
+            rows[name].append(res)
+            cubes[name] = np.load(out / "cube.npy")
+        for name in ("A", "B"):
+            res = rows[name][-1]
+            diff = ""
+            if name == "B":
+                diff = f"{np.abs(cubes['B'] - cubes['A']).max() / np.abs(cubes['A']).max():.2e}"
+            print(f"{name}{r + 1:<3d} {res['first_wall']:10.2f} {res['first_cpu']:9.2f} {res['wall']:8.3f} "
+                  f"{res['cpu']:7.3f} {res['peak']:8.0f} {res['static_po_samples']:9d}  {diff}", flush=True)
+    for key in ("first_cpu", "wall", "cpu", "peak"):
+        ratios = [b[key] / a[key] for a, b in zip(rows["A"], rows["B"])]
+        print(f"B/A {key}: " + ", ".join(f"{x:.3f}" for x in ratios))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
