@@ -79,7 +79,7 @@ def launch(tree: Path, spec: dict) -> dict:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--tree-a", required=True, help="checkout of the baseline (A)")
+    p.add_argument("--tree-a", help="checkout of the baseline (A), required")
     p.add_argument("--tree-b", default=str(REPO), help="checkout of the change (B, default this one)")
     p.add_argument("--scene", default=None, help="animation directory (default: circle_walk built with --frames)")
     p.add_argument("--frames", type=int, default=24)
@@ -90,6 +90,8 @@ def main(argv=None) -> int:
     if args.worker:
         Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
         return 0
+    if not args.tree_a:
+        p.error("--tree-a is required (a checkout of the baseline, e.g. git archive 96945cb | tar -x -C /tmp/treeA)")
     import numpy as np
 
     work = Path(tempfile.mkdtemp(prefix="static_block_"))

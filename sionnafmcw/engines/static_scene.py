@@ -62,7 +62,7 @@ kernels), and writes the frame's vertices back afterwards.
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -131,6 +131,19 @@ class Spheres:
         count, label = connected_components(gap <= self.radius[:, None] + self.radius[None], directed=False)
         return [np.flatnonzero(label == g) for g in range(count)]
 
+    def groups(self) -> list[tuple[np.ndarray, np.ndarray, float]]:
+        """``(members, centre [3], radius)`` per group of :meth:`clusters`: the group's sphere (centre of
+        the members' bounding box, radius to the farthest member's surface) holds every member."""
+        out = []
+        for members in self.clusters():
+            centre, radius = self.centre[members], self.radius[members]
+            lo, hi = (centre - radius[:, None]).min(axis=0), (centre + radius[:, None]).max(axis=0)
+            c_all = 0.5 * (lo + hi)
+            r_all = float(np.max(np.linalg.norm(centre - c_all, axis=-1) + radius)) if len(members) > 1 \
+                else float(radius[0])
+            out.append((members, centre[0] if len(members) == 1 else c_all, r_all))
+        return out
+
     def meet(self, origins, directions, lengths) -> np.ndarray:
         r"""``[P]`` bool: the segments :math:`\mathbf o + t\hat{\mathbf k}`, :math:`0 \le t \le \ell`
         (``lengths`` may be ``inf``; ``directions`` unit) that pass through a sphere: with
@@ -149,14 +162,11 @@ class Spheres:
         out = np.zeros(len(o), dtype=bool)
         if len(o) == 0 or len(self.radius) == 0:
             return out
-        for members in self.clusters():
+        for members, c_all, r_all in self.groups():
             centre, radius = self.centre[members], self.radius[members]
             if len(members) == 1:
                 out |= _meet_one(o, k, length, centre[0], float(radius[0]))
                 continue
-            lo, hi = (centre - radius[:, None]).min(axis=0), (centre + radius[:, None]).max(axis=0)
-            c_all = 0.5 * (lo + hi)
-            r_all = float(np.max(np.linalg.norm(centre - c_all, axis=-1) + radius))
             idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all) & ~out)
             if idx.size == 0:
                 continue
@@ -169,6 +179,98 @@ class Spheres:
             r2 = (radius ** 2)[None]
             h = np.sqrt(np.clip(r2 - d2, 0.0, None))
             out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= li[:, None]), axis=1)
+        return out
+
+
+class RayIndex:
+    r"""Static segments indexed by the point their lines come from, to find the few that may pass
+    through a moving object's sphere without testing them all.
+
+    Every static segment of the PO render lies on a ray from a fixed point, its *apparent source*
+    :math:`\mathbf s`: the first bounce's rays leave the render's origin; a specular reflection at
+    :math:`\mathbf p` (tangent plane normal :math:`\hat{\mathbf n}`) of a ray that came from
+    :math:`\mathbf s_{in}` leaves the mirror image
+    :math:`\mathbf s = \mathbf s_{in} - 2((\mathbf s_{in} - \mathbf p)\cdot\hat{\mathbf n})\hat{\mathbf n}`,
+    the same point for every sample of one plane (a wall's reflections all come from the radar's
+    image in the wall). So the segments fall in groups, one per apparent source, and within a group
+    the rays from :math:`\mathbf s` are indexed by their unit directions (a k-d tree,
+    :class:`scipy.spatial.cKDTree`).
+
+    A ray from :math:`\mathbf s` meets the sphere :math:`(\mathbf c, r)`,
+    :math:`D = |\mathbf c - \mathbf s| > r`, only if its direction lies within
+    :math:`\alpha = \arcsin(r/D)` of :math:`(\mathbf c - \mathbf s)/D`, the cone tangent to the
+    sphere; between unit vectors the angle :math:`\theta` and the chord :math:`2\sin(\theta/2)` grow
+    together, so a ball query of chord :math:`2\sin(\alpha/2)` finds every such ray (from inside the
+    sphere, :math:`D \le r`, every ray may meet it). The group's point is one member's :math:`\mathbf s`;
+    a segment :math:`\mathbf p + t\hat{\mathbf k}` lies within
+    :math:`\delta = |(\mathbf p - \mathbf s)\times\hat{\mathbf k}|` of the ray from :math:`\mathbf s` along
+    :math:`\hat{\mathbf k}` (and ahead of :math:`\mathbf s`, :math:`(\mathbf p - \mathbf s)\cdot\hat{\mathbf k} \ge 0`,
+    else it is tested on its own), so each group queries the sphere grown by its largest
+    :math:`\delta` (rounding, :math:`10^{-15}` m, on a plane; a curved surface's samples make groups of
+    one). Segments in groups smaller than :data:`MIN_GROUP` are tested directly. The cone holds every
+    segment that meets its sphere; each sphere's exact test (:meth:`Spheres.meet`'s closed form) runs
+    on the segments in its cone alone: a frame costs the segments near the moving objects.
+    """
+
+    #: Groups of fewer segments are tested directly (a tree is not worth it).
+    MIN_GROUP = 64
+
+    def __init__(self, sources, starts, directions):
+        from scipy.spatial import cKDTree
+
+        sources, starts, k = (np.asarray(x, float) for x in (sources, starts, directions))
+        # one group per apparent source, its point the first member's (sources agree to rounding on a plane)
+        _, first, label = np.unique(np.round(sources, 9), axis=0, return_index=True, return_inverse=True)
+        label = label.reshape(-1)
+        point = sources[first][label]
+        ahead = np.einsum("pi,pi->p", starts - point, k) >= 0
+        offset = np.linalg.norm(np.cross(starts - point, k), axis=-1)
+        label = np.where(ahead, label, -1)
+        counts = np.bincount(label[label >= 0], minlength=len(first))
+        label = np.where((label >= 0) & (counts[np.maximum(label, 0)] >= self.MIN_GROUP), label, -1)
+        self.loose = np.flatnonzero(label < 0)
+        self.groups = []
+        order = np.argsort(label, kind="stable")
+        bounds = np.searchsorted(label[order], np.arange(len(first) + 1))
+        for g in range(len(first)):
+            members = order[bounds[g]:bounds[g + 1]]
+            if members.size:
+                self.groups.append((sources[first[g]], cKDTree(k[members]), members, float(offset[members].max())))
+        self.size = len(sources)
+
+    def _cone(self, tree, point, members, centre, radius) -> np.ndarray:
+        """The ``members`` of a group (rays from ``point``) whose direction lies in the cone of the sphere."""
+        d = float(np.linalg.norm(centre - point))
+        if d <= radius:
+            return members
+        chord = 2.0 * np.sin(0.5 * np.arcsin(radius / d))
+        hit = tree.query_ball_point((centre - point) / d, chord * (1 + 1e-9) + 1e-12, return_sorted=False)
+        return members[np.asarray(hit, dtype=np.int64)]
+
+    def meet(self, spheres: Spheres, starts, directions, lengths) -> np.ndarray:
+        """``[P]`` bool: :meth:`Spheres.meet` of the indexed segments (``starts``, unit ``directions``,
+        ``lengths``, the segments the index was built on): each sphere's exact test on the segments in
+        its cone alone, found per group of touching spheres (:meth:`Spheres.groups`) and then per member."""
+        out = np.zeros(self.size, dtype=bool)
+        if self.size == 0 or len(spheres.radius) == 0:
+            return out
+        starts, k = np.asarray(starts, float), np.asarray(directions, float)
+        length = np.broadcast_to(np.asarray(lengths, float), (self.size,))
+        if self.loose.size:
+            out[self.loose] = spheres.meet(starts[self.loose], k[self.loose], length[self.loose])
+        groups = spheres.groups()
+        for point, tree, members, margin in self.groups:
+            grow = margin * (1 + 1e-9) + 1e-12
+            for parts, centre, radius in groups:
+                near = self._cone(tree, point, members, centre, radius + grow)
+                if near.size == 0:
+                    continue
+                for j in parts:
+                    c, r = spheres.centre[j], float(spheres.radius[j])
+                    rows = near if len(parts) == 1 else self._cone(tree, point, members, c, r + grow)
+                    rows = rows[~out[rows]]
+                    if rows.size:
+                        out[rows] = _meet_one(starts[rows], k[rows], length[rows], c, r)
         return out
 
 
@@ -262,6 +364,7 @@ class StaticPO:
     outgoing: list
     cells: list
     echoes: object
+    index: dict = field(default_factory=dict)
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
@@ -319,6 +422,22 @@ class StaticPO:
     def num_samples(self) -> int:
         return int(sum(int(k.sum()) for k in self.keep))
 
+    def _index(self, d: int) -> RayIndex:
+        """The :class:`RayIndex` (built on first use, then kept for the pose) of the segments a frame tests:
+        ``d = 0`` the first bounce's incident rays (from the render's origin), ``d >= 1`` the rays reflected
+        at bounce ``d`` (from the image of bounce ``d``'s source in each sample's tangent plane)."""
+        if d not in self.index:
+            if d == 0:
+                b = self.renders[0]
+                self.index[0] = RayIndex(b.source, b.source, self.incident[0])
+            else:
+                b = self.renders[d - 1]
+                n, k_out = b.reflected()
+                p, src = b.samples.position, np.asarray(b.source, float)
+                image = src - 2 * np.einsum("pi,pi->p", src - p, n)[:, None] * n
+                self.index[d] = RayIndex(image, p, k_out)
+        return self.index[d]
+
     def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
               contributions, frequency: float, max_splits: int | None = None):
         """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
@@ -339,7 +458,7 @@ class StaticPO:
         first = self.renders[0]
         removed = [np.zeros(first.num_samples, dtype=bool)]
         if first.num_samples and moving:
-            cand = np.flatnonzero(spheres.meet(first.source, *self.incident))
+            cand = np.flatnonzero(self._index(0).meet(spheres, first.source, *self.incident))
             removed[0][cand] = blocked_in_world(world, first.source[cand], first.samples.position[cand])
         # the moving objects' own chains, every exit aperture resolved (bounce_sampling); the static chains
         # that now end on a moving object are followed from the cached static tubes
@@ -355,7 +474,8 @@ class StaticPO:
                 prev, (k_out, child, length) = self.renders[d - 1], self.outgoing[d - 1]
                 gone = removed[d - 1][self.renders[d].parent]
                 if moving and prev.num_samples:
-                    cand = np.flatnonzero(~removed[d - 1] & spheres.meet(prev.samples.position, k_out, length))
+                    cand = np.flatnonzero(~removed[d - 1] & self._index(d).meet(spheres, prev.samples.position,
+                                                                                   k_out, length))
                     # the reflected rays that now end on a moving object: their cached next bounce goes,
                     # and they are rendered again (only those) on the moving object
                     cand = cand[first_hit_moving(world, prev.samples.position[cand], k_out[cand])]
@@ -383,5 +503,5 @@ class StaticPO:
         return own, removed_echoes, int(sum(int((g & k).sum()) for g, k in zip(removed, self.keep)))
 
 
-__all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
+__all__ = ["SEGMENT_TOLERANCE", "RayIndex", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
            "moving_objects", "shared_rows"]
