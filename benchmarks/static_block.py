@@ -8,7 +8,9 @@ tree (``--tree-a``: a checkout, e.g. ``git archive 96945cb | tar -x -C /tmp/tree
 default this one), limiting glibc to one arena first as the command line does. A and B alternate
 (``--rounds`` pairs, the order swapped every round) so that the machine's load hits them alike.
 Per run: wall and CPU seconds (user + system, every thread) of frame 0 (scene load, the static
-block rendered and its beat cube synthesised once) and per steady frame (1 ..), the peak resident
+block rendered and its beat cube synthesised once) and per steady frame (1 ..); the engine's own
+wall seconds per steady frame (median of its ``stats``) and the CPU seconds of the thread that calls
+it (numpy's share of the engine; Dr.Jit's pool and the synthesis thread apart); the peak resident
 size (``ru_maxrss``, MiB), the static block's PO samples; B's last beat cube against A's of the same
 round (largest difference over A's largest magnitude: 0 when the echoes are bit for bit the same).
 
@@ -50,6 +52,17 @@ def worker(spec: dict) -> dict:
 
     anim = sf.load_animation(spec["scene"])
     engine = engines.create("path")
+    engine_cpu = []   # CPU seconds of the thread that runs the engine, per frame (numpy's work; Dr.Jit's pool apart)
+    echoes = engine.echoes
+
+    def timed(*a, **k):
+        c = time.thread_time()
+        try:
+            return echoes(*a, **k)
+        finally:
+            engine_cpu.append(time.thread_time() - c)
+
+    engine.echoes = timed
     store = Path(spec["out"]) / "run.zarr"
     c0, t0 = _cpu(), time.perf_counter()
     sf.simulate(anim, "walk-77ghz", engine=engine, out=store, frames=range(0, 1), progress=False)
@@ -60,6 +73,8 @@ def worker(spec: dict) -> dict:
     np.save(Path(spec["out"]) / "cube.npy", np.asarray(run.cube(n - 1)))
     figures = engine.stats[0].figures if getattr(engine, "stats", None) else {}
     return {"first_wall": t1 - t0, "first_cpu": c1 - c0, "wall": (t2 - t1) / (n - 1), "cpu": (c2 - c1) / (n - 1),
+            "engine_wall": float(np.median([s.seconds for s in engine.stats[1:]])),
+            "engine_cpu": float(np.median(engine_cpu[1:])),
             "peak": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024,
             "static_po_samples": int(figures.get("static_po_samples", 0))}
 
@@ -102,8 +117,8 @@ def main(argv=None) -> int:
         scene = str(work / "circle_walk")
         scenes.build("circle_walk", scene, num_frames=args.frames)
     trees = {"A": Path(args.tree_a).resolve(), "B": Path(args.tree_b).resolve()}
-    print(f"{'run':4s} {'first wall':>10s} {'first cpu':>9s} {'wall/fr':>8s} {'cpu/fr':>7s} {'peak MiB':>8s} "
-          f"{'static PO':>9s}  B vs A cube")
+    print(f"{'run':4s} {'first wall':>10s} {'first cpu':>9s} {'wall/fr':>8s} {'cpu/fr':>7s} {'engine wall':>11s} "
+          f"{'engine cpu':>10s} {'peak MiB':>8s} {'static PO':>9s}  B vs A cube")
     rows = {"A": [], "B": []}
     for r in range(args.rounds):
         cubes = {}
@@ -118,8 +133,9 @@ def main(argv=None) -> int:
             if name == "B":
                 diff = f"{np.abs(cubes['B'] - cubes['A']).max() / np.abs(cubes['A']).max():.2e}"
             print(f"{name}{r + 1:<3d} {res['first_wall']:10.2f} {res['first_cpu']:9.2f} {res['wall']:8.3f} "
-                  f"{res['cpu']:7.3f} {res['peak']:8.0f} {res['static_po_samples']:9d}  {diff}", flush=True)
-    for key in ("first_cpu", "wall", "cpu", "peak"):
+                  f"{res['cpu']:7.3f} {res['engine_wall']:11.3f} {res['engine_cpu']:10.3f} {res['peak']:8.0f} "
+                  f"{res['static_po_samples']:9d}  {diff}", flush=True)
+    for key in ("first_cpu", "wall", "cpu", "engine_wall", "engine_cpu", "peak"):
         ratios = [b[key] / a[key] for a, b in zip(rows["A"], rows["B"])]
         print(f"B/A {key}: " + ", ".join(f"{x:.3f}" for x in ratios))
     return 0
