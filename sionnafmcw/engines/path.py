@@ -622,10 +622,14 @@ class PathEngine(Engine):
                                                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
                                 lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"), self._max_splits)
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
-        # the block joins its parts lazily (Echoes.concatenate): it shares the arrays of the traced and the
-        # PO echoes (and so of the PO merge's cells) instead of holding a copy of them
-        block = Echoes.concatenate(parts or [Echoes.empty(radar.num_tx, radar.num_rx)]).map_parts(_labelled)
-        block.static_count, block.static_key = block.num_contributions, ("path-engine-static", next(_STATIC_BLOCKS))
+        # one copy of the static echoes: the block's arrays joined once, the PO echoes and the merge's cells
+        # then views of them (the parts' own arrays freed), so the synthesis reads the block as views too
+        joined = Echoes.concatenate(parts or [Echoes.empty(radar.num_tx, radar.num_rx)]).map_parts(_labelled)
+        block = Echoes(joined.a, joined.tau, joined.doppler, joined.labels, static_count=joined.num_contributions,
+                       static_key=("path-engine-static", next(_STATIC_BLOCKS)))
+        del joined, parts
+        if po is not None and po.echoes is not None:
+            po.share(block, 0 if traced is None else traced.num_contributions)
         state.static = _StaticBlock(key, paths if paths.num_paths else None, traced, po, block,
                                     time.perf_counter() - t0)
         return state.static, state.static.seconds

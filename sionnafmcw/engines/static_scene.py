@@ -422,6 +422,29 @@ class StaticPO:
     def num_samples(self) -> int:
         return int(sum(int(k.sum()) for k in self.keep))
 
+    def share(self, block, offset: int) -> None:
+        """Hold :attr:`echoes` and the merge's cells as views of ``block`` (an :class:`~sionnafmcw.echoes.Echoes`
+        whose contributions ``[..., offset:]`` are :attr:`echoes`, bounce after bounce), not as arrays of
+        their own: the static echoes in memory once."""
+        from ..echoes import Echoes
+
+        n = self.echoes.num_contributions
+        view = slice(offset, offset + n)
+        labels = np.asarray(block.labels)
+        self.echoes = Echoes(block.a[..., view], block.tau[..., view], block.doppler[..., view], labels[..., view])
+        row = labels[0, 0]   # the labels per contribution (the same for every element pair in a PO block)
+        start = offset
+        for d, (kept, cells) in enumerate(zip(self.keep, self.cells)):
+            if not np.any(kept):
+                continue
+            if cells is None:
+                start += int(kept.sum())
+                continue
+            cell, tau, _, _ = cells
+            g = slice(start, start + tau.shape[2])
+            self.cells[d] = (cell, block.tau[..., g], block.doppler[..., g], row[g])
+            start = g.stop
+
     def _index(self, d: int) -> RayIndex:
         """The :class:`RayIndex` (built on first use, then kept for the pose) of the segments a frame tests:
         ``d = 0`` the first bounce's incident rays (from the render's origin), ``d >= 1`` the rays reflected
