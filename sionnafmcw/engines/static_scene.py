@@ -152,7 +152,7 @@ class Spheres:
         return cls(np.reshape(np.asarray(centres, float), (-1, 3)), np.asarray(radii, float))
 
     def clusters(self) -> list[np.ndarray]:
-        """The spheres in groups that touch (indices per group): the connected components of the graph
+        r"""The spheres in groups that touch (indices per group): the connected components of the graph
         whose edges join two spheres that overlap, :math:`|\mathbf c_i - \mathbf c_j| \le r_i + r_j`.
         A body's parts overlap at its joints, so each person is one group and people apart are apart."""
         from scipy.sparse.csgraph import connected_components
@@ -205,7 +205,8 @@ class Spheres:
             oi, ki, li = o[idx] - c_all, k[idx], length[idx]
             c = centre - c_all
             tc = ki @ c.T - np.einsum("pi,pi->p", oi, ki)[:, None]
-            d2 = (np.einsum("pi,pi->p", oi, oi)[:, None] - 2.0 * (oi @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
+            d2 = (np.einsum("pi,pi->p", oi, oi)[:, None] - 2.0 * (oi @ c.T)
+                  + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
             r2 = (radius ** 2)[None]
             h = np.sqrt(np.clip(r2 - d2, 0.0, None))
             out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= li[:, None]), axis=1)
@@ -556,5 +557,5 @@ class StaticPO:
         return own, removed_echoes, int(sum(int((g & k).sum()) for g, k in zip(removed, self.keep)))
 
 
-__all__ = ["SEGMENT_TOLERANCE", "RayIndex", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
-           "moving_objects", "shared_rows"]
+__all__ = ["SEGMENT_TOLERANCE", "RayIndex", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments",
+           "first_hit_moving", "hidden", "moving_objects", "shared_rows"]
