@@ -174,3 +174,85 @@ def test_spheres_meet_all_spheres_at_once_as_one_by_one():
     got = Spheres(centres, radii).meet(origins, k, length)
     assert 2_000 < one_by_one.sum() < 18_000                        # both answers well represented
     np.testing.assert_array_equal(got, one_by_one)
+
+
+def people(rng, where):
+    """Bodies of 13 overlapping part spheres (0.2-0.3 m apart, radii 0.12-0.25 m) around each of ``where``."""
+    centres = [c + rng.normal(size=(13, 3)) * [0.1, 0.1, 0.4] for c in np.asarray(where, float)]
+    return np.concatenate(centres), rng.uniform(0.12, 0.25, 13 * len(where))
+
+
+def test_spheres_group_by_touching():
+    """Each body's overlapping parts form one group whose sphere holds them all; bodies apart are apart."""
+    rng = np.random.default_rng(5)
+    centres, radii = people(rng, [[3.0, 1.5, 1.0], [3.0, -1.5, 1.0]])
+    groups = Spheres(centres, radii).groups()
+    assert sorted(tuple(m) for m, _, _ in groups) == [tuple(range(13)), tuple(range(13, 26))]
+    for members, centre, radius in groups:
+        assert np.all(np.linalg.norm(centres[members] - centre, axis=-1) + radii[members] <= radius * (1 + 1e-12))
+
+
+def test_ray_index_meets_as_spheres():
+    """The index (segments grouped by apparent source, cones of the spheres) gives :meth:`Spheres.meet`'s
+    answer: segments from one origin (a first bounce), reflected by planes (each plane's rays from the
+    origin's image, starting on the plane), and from scattered points (groups too small: tested
+    directly); ending short, passing through, grazing or missing, finite and unbounded."""
+    from sionnafmcw.engines.static_scene import RayIndex
+
+    rng = np.random.default_rng(7)
+    centres, radii = people(rng, [[3.0, 1.5, 1.0], [4.0, -1.0, 1.0], [2.0, 0.0, 0.9]])
+    spheres = Spheres(centres, radii)
+    n = 30_000
+    origin = np.array([0.0, 0.2, 1.1])
+    aim = centres[rng.integers(0, len(centres), n)] + rng.normal(size=(n, 3)) * 0.3
+    k0 = aim - origin
+    k0 /= np.linalg.norm(k0, axis=-1, keepdims=True)
+    first = RayIndex(np.broadcast_to(origin, (n, 3)), np.broadcast_to(origin, (n, 3)), k0)
+    # reflections: images of the origin in 4 walls / floor, each ray starting where its line crosses the plane
+    planes = [(np.array([1.0, 0, 0]), 6.0), (np.array([0, 1.0, 0]), 3.0), (np.array([0, -1.0, 0]), 3.0),
+              (np.array([0, 0, 1.0]), 0.0)]
+    wall = rng.integers(0, len(planes) + 1, n)           # the last: scattered sources (groups of one)
+    image = np.empty((n, 3))
+    start = np.empty((n, 3))
+    for j, (normal, offset) in enumerate(planes):
+        rows = wall == j
+        image[rows] = origin - 2 * (origin @ normal - offset) * normal
+    rows = wall == len(planes)
+    image[rows] = rng.uniform(-2.0, 8.0, (rows.sum(), 3))
+    k1 = aim - image
+    k1 /= np.linalg.norm(k1, axis=-1, keepdims=True)
+    for j, (normal, offset) in enumerate(planes):
+        rows = wall == j
+        t = (offset - image[rows] @ normal) / (k1[rows] @ normal)
+        start[rows] = image[rows] + t[:, None] * k1[rows]
+    rows = wall == len(planes)
+    start[rows] = image[rows] + rng.uniform(0.0, 1.0, (rows.sum(), 1)) * k1[rows]
+    reflected = RayIndex(image, start, k1)
+    assert len(reflected.groups) == len(planes) and reflected.loose.size == (wall == len(planes)).sum()
+    for index, starts, k in ((first, np.broadcast_to(origin, (n, 3)), k0), (reflected, start, k1)):
+        length = rng.uniform(0.0, 8.0, n)
+        length[::5] = np.inf
+        expected = spheres.meet(starts, k, length)
+        assert 0.2 * n < expected.sum() < 0.8 * n                  # both answers well represented
+        np.testing.assert_array_equal(index.meet(spheres, starts, k, length), expected)
+
+
+def test_shared_rows_keeps_every_bit():
+    """Fields whose rows are bit for bit the same become one broadcast row; others (-0.0 against 0.0
+    included: the same value, not the same bits) stay as they are."""
+    from sionnafmcw.engines.static_scene import shared_rows
+    from sionnafmcw.physical_optics import SurfaceSamples
+
+    p = 50
+    velocity = np.zeros((p, 3))
+    velocity[7, 1] = -0.0
+    samples = SurfaceSamples(position=np.random.default_rng(0).normal(size=(p, 3)), normal=np.tile([0, 0, 1.0], (p, 1)),
+                             area=np.full(p, 1e-6), velocity=velocity, curvature=np.zeros((p, 3, 3)))
+    before = {k: np.array(v) for k, v in vars(samples).items() if isinstance(v, np.ndarray)}
+    shared_rows(samples)
+    assert samples.normal.strides[0] == 0 and samples.area.strides[0] == 0 and samples.curvature.strides[0] == 0
+    assert samples.position.strides[0] != 0 and samples.velocity.strides[0] != 0
+    for name, value in before.items():
+        got = np.asarray(getattr(samples, name))
+        assert got.dtype == value.dtype and got.tobytes() == value.tobytes(), name
+    assert samples.select(np.arange(p) % 2 == 0).normal.flags.writeable

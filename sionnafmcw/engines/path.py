@@ -217,6 +217,13 @@ class _StaticBlock:
     seconds: float
 
 
+def _labelled(part: Echoes) -> Echoes:
+    """The static block's ``part`` with its labels (empty names where it has none) and without Doppler
+    rates (a static scene seen from a radar at rest has none): the same arrays, not copies."""
+    labels = part.labels if part.labels is not None else np.zeros(part.num_contributions, dtype=str)
+    return Echoes(part.a, part.tau, part.doppler, labels)
+
+
 def _per_element_rates(paths: TracedPaths, rates, shape) -> np.ndarray:
     """``"per-element"``: the Doppler rates ``[P]`` of traced paths placed as :func:`per_element_echoes` places
     their gains (each path is one element pair's contribution), ``[M, N, K]``."""
@@ -615,11 +622,14 @@ class PathEngine(Engine):
                                                 lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
                                 lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"), self._max_splits)
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
-        block = Echoes.empty(radar.num_tx, radar.num_rx) if not parts else \
-            (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
-        labels = block.labels if block.labels is not None else np.zeros(block.num_contributions, dtype=str)
-        block = Echoes(block.a, block.tau, block.doppler, labels, static_count=block.num_contributions,
+        # one copy of the static echoes: the block's arrays joined once, the PO echoes and the merge's cells
+        # then views of them (the parts' own arrays freed), so the synthesis reads the block as views too
+        joined = Echoes.concatenate(parts or [Echoes.empty(radar.num_tx, radar.num_rx)]).map_parts(_labelled)
+        block = Echoes(joined.a, joined.tau, joined.doppler, joined.labels, static_count=joined.num_contributions,
                        static_key=("path-engine-static", next(_STATIC_BLOCKS)))
+        del joined, parts
+        if po is not None and po.echoes is not None:
+            po.share(block, 0 if traced is None else traced.num_contributions)
         state.static = _StaticBlock(key, paths if paths.num_paths else None, traced, po, block,
                                     time.perf_counter() - t0)
         return state.static, state.static.seconds

@@ -57,12 +57,42 @@ Taking objects out of the scene: :func:`hidden` collapses every vertex of their 
 point, so their triangles have no area and no ray hits them (Mitsuba's ray-triangle test rejects
 degenerate triangles), through the same scene-parameter update as a frame's geometry (no new
 kernels), and writes the frame's vertices back afterwards.
+
+Cost
+----
+The multi-bounce rule (:mod:`~sionnafmcw.engines.bounce_sampling`) makes the static block large
+(the circle walk's room 288k -> 740k PO samples, a furnished room 225k -> 930k), and a frame pays
+for its size in two places: the blocking test and the memory the block is held in.
+
+* *The blocking test*: every frame asks which static segments pass through a moving object's
+  bounding sphere. Tested segment by segment it costs (segments x spheres) numpy work a frame (the
+  furnished room with three walkers of 13 parts: 1.1 s of a 2.3 CPU-s engine frame). The segments are
+  fixed per pose, so they are indexed once (:class:`RayIndex`: grouped by the point their lines come
+  from, the origin or its image in a plane, and by direction in a k-d tree) and the spheres in groups
+  of touching ones (:meth:`Spheres.groups`, one per person): a frame tests the segments in the cones
+  of the spheres alone, with the same closed form, so it finds the same segments.
+* *Memory*: the block is held once (the joined echo block, the PO echoes and the merge's cells
+  views of it: :meth:`StaticPO.share`), and what is the same for every sample of a render once
+  (:func:`shared_rows`: a third of a first bounce). The static samples stay in float64: in float32
+  a position 5 m from the world's origin rounds by :math:`5 \cdot 2^{-24} \approx 3\times10^{-7}` m,
+  a delay of 33 ns by :math:`2\times10^{-15}` s, each :math:`4\pi\,\delta x/\lambda \approx
+  2\pi f_c\,\delta\tau \approx 10^{-3}` rad at 77 GHz (an error -60 dB under the sample's echo):
+  small, but a blocked sample must leave the block with bit for bit the gain it brought (the frame
+  computes it again from the held render), so the block would have to be computed from the rounded
+  render and would no longer equal the uncached engine's up to the synthesis's rounding, for the
+  positions, directions and steps (a third of a render after the shared rows).
+
+Measured (``benchmarks/static_block.py``, against the block held twice and tested segment by segment;
+2-core AMD EPYC shared with other work, interleaved runs; every cube bit for bit the same): the
+run's peak memory 0.86x on the circle walk and the furnished room with three walkers, the room's
+steady frames 0.84-0.85x CPU (its blocking test 1.13 -> 0.17 s a frame); the walk's frames, whose
+one walker blocks few segments, 0.95-1.01x.
 """
 
 from __future__ import annotations
 
 from contextlib import contextmanager
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -121,34 +151,175 @@ class Spheres:
             radii.append(float(np.max(np.linalg.norm(v - c, axis=-1))) * (1 + 1e-6) + 1e-6)
         return cls(np.reshape(np.asarray(centres, float), (-1, 3)), np.asarray(radii, float))
 
+    def clusters(self) -> list[np.ndarray]:
+        r"""The spheres in groups that touch (indices per group): the connected components of the graph
+        whose edges join two spheres that overlap, :math:`|\mathbf c_i - \mathbf c_j| \le r_i + r_j`.
+        A body's parts overlap at its joints, so each person is one group and people apart are apart."""
+        from scipy.sparse.csgraph import connected_components
+
+        gap = np.linalg.norm(self.centre[:, None] - self.centre[None], axis=-1)
+        count, label = connected_components(gap <= self.radius[:, None] + self.radius[None], directed=False)
+        return [np.flatnonzero(label == g) for g in range(count)]
+
+    def groups(self) -> list[tuple[np.ndarray, np.ndarray, float]]:
+        """``(members, centre [3], radius)`` per group of :meth:`clusters`: the group's sphere (centre of
+        the members' bounding box, radius to the farthest member's surface) holds every member."""
+        out = []
+        for members in self.clusters():
+            centre, radius = self.centre[members], self.radius[members]
+            lo, hi = (centre - radius[:, None]).min(axis=0), (centre + radius[:, None]).max(axis=0)
+            c_all = 0.5 * (lo + hi)
+            r_all = float(np.max(np.linalg.norm(centre - c_all, axis=-1) + radius)) if len(members) > 1 \
+                else float(radius[0])
+            out.append((members, centre[0] if len(members) == 1 else c_all, r_all))
+        return out
+
     def meet(self, origins, directions, lengths) -> np.ndarray:
         r"""``[P]`` bool: the segments :math:`\mathbf o + t\hat{\mathbf k}`, :math:`0 \le t \le \ell`
         (``lengths`` may be ``inf``; ``directions`` unit) that pass through a sphere: with
         :math:`t_c = (\mathbf c - \mathbf o)\cdot\hat{\mathbf k}` and :math:`d^2 = |\mathbf c - \mathbf o|^2 - t_c^2`,
-        :math:`d \le r` and :math:`[t_c - h, t_c + h]` (:math:`h = \sqrt{r^2 - d^2}`) meets :math:`[0, \ell]`."""
+        :math:`d \le r` and :math:`[t_c - h, t_c + h]` (:math:`h = \sqrt{r^2 - d^2}`) meets :math:`[0, \ell]`.
+
+        A two-level hierarchy of bounding spheres: every segment is tested against the sphere around
+        each group of touching spheres (:meth:`clusters`: one per person), and only the segments that
+        meet a group's sphere against its members. A segment that passes through a member passes
+        through the group's sphere, which holds the member, so the answer is the test of every sphere;
+        the cost is (segments x groups) plus (the few segments near a person x its parts) instead of
+        (segments x spheres)."""
         o = np.asarray(origins, float)
         k = np.asarray(directions, float)
         length = np.broadcast_to(np.asarray(lengths, float), (len(o),))
         out = np.zeros(len(o), dtype=bool)
         if len(o) == 0 or len(self.radius) == 0:
             return out
-        # first the sphere around all the spheres, then every sphere on the segments that meet it, at once:
-        # t_c = c.k - o.k and |c - o|^2 = |o|^2 - 2 c.o + |c|^2 as [P, K] products with the centres
-        lo, hi = (self.centre - self.radius[:, None]).min(axis=0), (self.centre + self.radius[:, None]).max(axis=0)
-        c_all = 0.5 * (lo + hi)
-        r_all = float(np.max(np.linalg.norm(self.centre - c_all, axis=-1) + self.radius))
-        idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all)) if len(self.radius) > 1 else np.arange(len(o))
-        if idx.size == 0:
-            return out
-        o, k, length = o[idx], k[idx], length[idx]
-        c = self.centre - c_all                     # about the joint centre: |o|, |c| of metres, not of the room
-        o = o - c_all
-        tc = k @ c.T - np.einsum("pi,pi->p", o, k)[:, None]
-        d2 = (np.einsum("pi,pi->p", o, o)[:, None] - 2.0 * (o @ c.T) + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
-        r2 = (self.radius ** 2)[None]
-        h = np.sqrt(np.clip(r2 - d2, 0.0, None))
-        out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= length[:, None]), axis=1)
+        for members, c_all, r_all in self.groups():
+            centre, radius = self.centre[members], self.radius[members]
+            if len(members) == 1:
+                out |= _meet_one(o, k, length, centre[0], float(radius[0]))
+                continue
+            idx = np.flatnonzero(_meet_one(o, k, length, c_all, r_all) & ~out)
+            if idx.size == 0:
+                continue
+            # every member at once on the segments that meet the group's sphere: t_c = c.k - o.k and
+            # |c - o|^2 = |o|^2 - 2 c.o + |c|^2 as [P, K] products, about the group's centre (metres, not the room's)
+            oi, ki, li = o[idx] - c_all, k[idx], length[idx]
+            c = centre - c_all
+            tc = ki @ c.T - np.einsum("pi,pi->p", oi, ki)[:, None]
+            d2 = (np.einsum("pi,pi->p", oi, oi)[:, None] - 2.0 * (oi @ c.T)
+                  + np.einsum("ki,ki->k", c, c)[None]) - tc ** 2
+            r2 = (radius ** 2)[None]
+            h = np.sqrt(np.clip(r2 - d2, 0.0, None))
+            out[idx] = np.any((d2 <= r2) & (tc + h >= 0) & (tc - h <= li[:, None]), axis=1)
         return out
+
+
+class RayIndex:
+    r"""Static segments indexed by the point their lines come from, to find the few that may pass
+    through a moving object's sphere without testing them all.
+
+    Every static segment of the PO render lies on a ray from a fixed point, its *apparent source*
+    :math:`\mathbf s`: the first bounce's rays leave the render's origin; a specular reflection at
+    :math:`\mathbf p` (tangent plane normal :math:`\hat{\mathbf n}`) of a ray that came from
+    :math:`\mathbf s_{in}` leaves the mirror image
+    :math:`\mathbf s = \mathbf s_{in} - 2((\mathbf s_{in} - \mathbf p)\cdot\hat{\mathbf n})\hat{\mathbf n}`,
+    the same point for every sample of one plane (a wall's reflections all come from the radar's
+    image in the wall). So the segments fall in groups, one per apparent source, and within a group
+    the rays from :math:`\mathbf s` are indexed by their unit directions (a k-d tree,
+    :class:`scipy.spatial.cKDTree`).
+
+    A ray from :math:`\mathbf s` meets the sphere :math:`(\mathbf c, r)`,
+    :math:`D = |\mathbf c - \mathbf s| > r`, only if its direction lies within
+    :math:`\alpha = \arcsin(r/D)` of :math:`(\mathbf c - \mathbf s)/D`, the cone tangent to the
+    sphere; between unit vectors the angle :math:`\theta` and the chord :math:`2\sin(\theta/2)` grow
+    together, so a ball query of chord :math:`2\sin(\alpha/2)` finds every such ray (from inside the
+    sphere, :math:`D \le r`, every ray may meet it). The group's point is one member's :math:`\mathbf s`;
+    a segment :math:`\mathbf p + t\hat{\mathbf k}` lies within
+    :math:`\delta = |(\mathbf p - \mathbf s)\times\hat{\mathbf k}|` of the ray from :math:`\mathbf s` along
+    :math:`\hat{\mathbf k}` (and ahead of :math:`\mathbf s`, :math:`(\mathbf p - \mathbf s)\cdot\hat{\mathbf k} \ge 0`,
+    else it is tested on its own), so each group queries the sphere grown by its largest
+    :math:`\delta` (rounding, :math:`10^{-15}` m, on a plane; a curved surface's samples make groups of
+    one). Segments in groups smaller than :data:`MIN_GROUP` are tested directly. The cone holds every
+    segment that meets its sphere; each sphere's exact test (:meth:`Spheres.meet`'s closed form) runs
+    on the segments in its cone alone: a frame costs the segments near the moving objects.
+    """
+
+    #: Groups of fewer segments are tested directly (a tree is not worth it).
+    MIN_GROUP = 64
+
+    def __init__(self, sources, starts, directions):
+        from scipy.spatial import cKDTree
+
+        sources, starts, k = (np.asarray(x, float) for x in (sources, starts, directions))
+        # one group per apparent source, its point the first member's (sources agree to rounding on a plane)
+        _, first, label = np.unique(np.round(sources, 9), axis=0, return_index=True, return_inverse=True)
+        label = label.reshape(-1)
+        point = sources[first][label]
+        ahead = np.einsum("pi,pi->p", starts - point, k) >= 0
+        offset = np.linalg.norm(np.cross(starts - point, k), axis=-1)
+        label = np.where(ahead, label, -1)
+        counts = np.bincount(label[label >= 0], minlength=len(first))
+        label = np.where((label >= 0) & (counts[np.maximum(label, 0)] >= self.MIN_GROUP), label, -1)
+        self.loose = np.flatnonzero(label < 0)
+        self.groups = []
+        order = np.argsort(label, kind="stable")
+        bounds = np.searchsorted(label[order], np.arange(len(first) + 1))
+        for g in range(len(first)):
+            members = order[bounds[g]:bounds[g + 1]]
+            if members.size:
+                self.groups.append((sources[first[g]], cKDTree(k[members]), members, float(offset[members].max())))
+        self.size = len(sources)
+
+    def _cone(self, tree, point, members, centre, radius) -> np.ndarray:
+        """The ``members`` of a group (rays from ``point``) whose direction lies in the cone of the sphere."""
+        d = float(np.linalg.norm(centre - point))
+        if d <= radius:
+            return members
+        chord = 2.0 * np.sin(0.5 * np.arcsin(radius / d))
+        hit = tree.query_ball_point((centre - point) / d, chord * (1 + 1e-9) + 1e-12, return_sorted=False)
+        return members[np.asarray(hit, dtype=np.int64)]
+
+    def meet(self, spheres: Spheres, starts, directions, lengths) -> np.ndarray:
+        """``[P]`` bool: :meth:`Spheres.meet` of the indexed segments (``starts``, unit ``directions``,
+        ``lengths``, the segments the index was built on): each sphere's exact test on the segments in
+        its cone alone, found per group of touching spheres (:meth:`Spheres.groups`) and then per member."""
+        out = np.zeros(self.size, dtype=bool)
+        if self.size == 0 or len(spheres.radius) == 0:
+            return out
+        starts, k = np.asarray(starts, float), np.asarray(directions, float)
+        length = np.broadcast_to(np.asarray(lengths, float), (self.size,))
+        if self.loose.size:
+            out[self.loose] = spheres.meet(starts[self.loose], k[self.loose], length[self.loose])
+        groups = spheres.groups()
+        for point, tree, members, margin in self.groups:
+            grow = margin * (1 + 1e-9) + 1e-12
+            for parts, centre, radius in groups:
+                near = self._cone(tree, point, members, centre, radius + grow)
+                if near.size == 0:
+                    continue
+                for j in parts:
+                    c, r = spheres.centre[j], float(spheres.radius[j])
+                    rows = near if len(parts) == 1 else self._cone(tree, point, members, c, r + grow)
+                    rows = rows[~out[rows]]
+                    if rows.size:
+                        out[rows] = _meet_one(starts[rows], k[rows], length[rows], c, r)
+        return out
+
+
+def shared_rows(record) -> None:
+    """Replace every array field ``[P, ...]`` of the dataclass ``record`` whose rows are all bit for bit
+    the same by a read-only broadcast view of one row: the same values, one row of memory.
+
+    A static render holds many such fields (on the first bounce the image source, the identity mirror
+    map, the unit chain reflection; on every bounce the zero velocities and, on flat surfaces, the
+    zero shape operator): about a third of the first bounce's bytes. Selecting samples
+    (:meth:`~sionnafmcw.engines.po_render.Render.select`) gives ordinary arrays again."""
+    for name in record.__dataclass_fields__:
+        x = getattr(record, name)
+        if not isinstance(x, np.ndarray) or x.ndim == 0 or len(x) < 2 or x.dtype.hasobject or x.strides[0] == 0:
+            continue
+        rows = np.ascontiguousarray(x).view(np.uint8).reshape(len(x), -1)
+        if np.all(rows == rows[:1]):
+            object.__setattr__(record, name, np.broadcast_to(x[0].copy(), x.shape))
 
 
 def _meet_one(o, k, length, c, r) -> np.ndarray:
@@ -224,6 +395,7 @@ class StaticPO:
     outgoing: list
     cells: list
     echoes: object
+    index: dict = field(default_factory=dict)
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
@@ -272,11 +444,53 @@ class StaticPO:
                 cells.append((merged.cell, merged.tau, merged.doppler, merged.labels))
                 parts.append(Echoes(merged.a, merged.tau, merged.doppler, merged.labels))
         echoes = None if not parts else (parts[0] if len(parts) == 1 else Echoes.concatenate(parts))
+        for b in renders:   # held for every frame of the pose: what is the same for all samples, once
+            shared_rows(b)
+            shared_rows(b.samples)
         return cls(renders, keep, incident, outgoing, cells, echoes)
 
     @property
     def num_samples(self) -> int:
         return int(sum(int(k.sum()) for k in self.keep))
+
+    def share(self, block, offset: int) -> None:
+        """Hold :attr:`echoes` and the merge's cells as views of ``block`` (an :class:`~sionnafmcw.echoes.Echoes`
+        whose contributions ``[..., offset:]`` are :attr:`echoes`, bounce after bounce), not as arrays of
+        their own: the static echoes in memory once."""
+        from ..echoes import Echoes
+
+        n = self.echoes.num_contributions
+        view = slice(offset, offset + n)
+        labels = np.asarray(block.labels)
+        self.echoes = Echoes(block.a[..., view], block.tau[..., view], block.doppler[..., view], labels[..., view])
+        row = labels[0, 0]   # the labels per contribution (the same for every element pair in a PO block)
+        start = offset
+        for d, (kept, cells) in enumerate(zip(self.keep, self.cells)):
+            if not np.any(kept):
+                continue
+            if cells is None:
+                start += int(kept.sum())
+                continue
+            cell, tau, _, _ = cells
+            g = slice(start, start + tau.shape[2])
+            self.cells[d] = (cell, block.tau[..., g], block.doppler[..., g], row[g])
+            start = g.stop
+
+    def _index(self, d: int) -> RayIndex:
+        """The :class:`RayIndex` (built on first use, then kept for the pose) of the segments a frame tests:
+        ``d = 0`` the first bounce's incident rays (from the render's origin), ``d >= 1`` the rays reflected
+        at bounce ``d`` (from the image of bounce ``d``'s source in each sample's tangent plane)."""
+        if d not in self.index:
+            if d == 0:
+                b = self.renders[0]
+                self.index[0] = RayIndex(b.source, b.source, self.incident[0])
+            else:
+                b = self.renders[d - 1]
+                n, k_out = b.reflected()
+                p, src = b.samples.position, np.asarray(b.source, float)
+                image = src - 2 * np.einsum("pi,pi->p", src - p, n)[:, None] * n
+                self.index[d] = RayIndex(image, p, k_out)
+        return self.index[d]
 
     def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
               contributions, frequency: float, max_splits: int | None = None):
@@ -298,7 +512,7 @@ class StaticPO:
         first = self.renders[0]
         removed = [np.zeros(first.num_samples, dtype=bool)]
         if first.num_samples and moving:
-            cand = np.flatnonzero(spheres.meet(first.source, *self.incident))
+            cand = np.flatnonzero(self._index(0).meet(spheres, first.source, *self.incident))
             removed[0][cand] = blocked_in_world(world, first.source[cand], first.samples.position[cand])
         # the moving objects' own chains, every exit aperture resolved (bounce_sampling); the static chains
         # that now end on a moving object are followed from the cached static tubes
@@ -314,7 +528,8 @@ class StaticPO:
                 prev, (k_out, child, length) = self.renders[d - 1], self.outgoing[d - 1]
                 gone = removed[d - 1][self.renders[d].parent]
                 if moving and prev.num_samples:
-                    cand = np.flatnonzero(~removed[d - 1] & spheres.meet(prev.samples.position, k_out, length))
+                    cand = np.flatnonzero(~removed[d - 1] & self._index(d).meet(spheres, prev.samples.position,
+                                                                                   k_out, length))
                     # the reflected rays that now end on a moving object: their cached next bounce goes,
                     # and they are rendered again (only those) on the moving object
                     cand = cand[first_hit_moving(world, prev.samples.position[cand], k_out[cand])]
@@ -342,5 +557,5 @@ class StaticPO:
         return own, removed_echoes, int(sum(int((g & k).sum()) for g, k in zip(removed, self.keep)))
 
 
-__all__ = ["SEGMENT_TOLERANCE", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments", "first_hit_moving", "hidden",
-           "moving_objects"]
+__all__ = ["SEGMENT_TOLERANCE", "RayIndex", "Spheres", "StaticPO", "blocked_in_world", "blocked_segments",
+           "first_hit_moving", "hidden", "moving_objects", "shared_rows"]

@@ -131,6 +131,8 @@ def corner_reflectors(out, ranges, azimuths, speeds, leg, height, room, scatteri
     """Reflector k: corner at ``(R_k + v_k t)`` along azimuth ``phi_k``, aperture axis pointing at the radar.
 
     Static reflectors (speed 0) are written once and listed in the manifest with zero velocity.
+    A trihedral's echo is its triple bounce: simulate with the path engine's ``max_depth=3``
+    (``--engine-option max_depth=3``); the default two bounces leave only its residue, tens of dB low.
     """
     if not (len(ranges) == len(azimuths) == len(speeds)) or not ranges:
         raise ValueError(f"corner_reflectors: ranges, azimuths and speeds must have the same non-zero length "
@@ -185,7 +187,11 @@ def car_park(out, num_pillars, spacing, first, lane_width, speed, leg, height, r
     """Reflector ``(k, side)``: corner at ``(first + k spacing, side lane_width/2, height)``, its aperture axis
     pointing at the radar's start ``(0, 0, height)``; the radar moves along +x at ``speed`` looking ahead
     (a radar track; every reflector is static and listed for the truth, so the run store carries its
-    range and radial velocity from the moving radar)."""
+    range and radial velocity from the moving radar).
+
+    A trihedral's echo is its triple bounce: simulate with the path engine's ``max_depth=3``
+    (``--engine-option max_depth=3``). At the default two bounces it returns only its single- and
+    double-bounce residue, 35-48 dB below its echo (``benchmarks/po_bounces.py issue``)."""
     w = AnimationWriter(out, fps)
     w.add_materials(metal_material(scattering_coefficient))
     origin = np.array([0.0, 0.0, height])
