@@ -76,7 +76,8 @@ def test_static_leakage_is_grouped_away_and_a_moving_reflector_is_kept():
 def test_point_cloud_bands_and_the_cli(tmp_path, capsys):
     """Two real recordings per class in a folder of their own: the CLI prints the metrics JSON last,
     the bands' point counts add up to the points beyond 0.3 m that fall in them, moving shares are
-    shares; a folder without point clouds is a one-line error."""
+    shares; a folder without point clouds, a missing folder or run store and bad --frames are
+    one-line errors."""
     for folder in sorted((RADHAR / "train").iterdir())[:2]:
         (tmp_path / "real" / folder.name).mkdir(parents=True)
         for f in sorted(folder.glob("*.npz"))[:2]:
@@ -93,3 +94,9 @@ def test_point_cloud_bands_and_the_cli(tmp_path, capsys):
     assert budget.main(["--real", str(tmp_path / "empty")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no <class>/*.npz" in err[0]
+    for argv, words in ((["--real", str(tmp_path / "absent")], "no such folder"),
+                        (["--run", str(tmp_path / "absent.zarr")], "absent.zarr"),
+                        (["--frames", "1,x"], "--frames")):
+        assert budget.main(argv) == 2
+        err = capsys.readouterr().err.strip().splitlines()
+        assert len(err) == 1 and words in err[0]

@@ -124,7 +124,7 @@ def frame_budget(cube, radar, processing, person_range_m: tuple[float, float]) -
 def run_budget(store, frames=None, processing=None) -> dict:
     """:func:`frame_budget` on frames of a run store with one person (default: every tenth done
     frame), and the body segments' radial speeds against half a Doppler bin."""
-    from ..store import open_run
+    from ..store import RunStoreError, open_run
     from ..ti.oob import run_processing
 
     run = open_run(store)
@@ -132,6 +132,10 @@ def run_budget(store, frames=None, processing=None) -> dict:
     radar = run.radar
     done = run.done_frames
     frames = done[::10] if frames is None else np.asarray(frames, int)
+    missing = sorted(set(frames.tolist()) - set(done.tolist()))
+    if missing:
+        raise RunStoreError(f"{store}: frames {missing} are not done (done: {done.size} of {run.num_frames}); "
+                            "give --frames among the done ones")
     joints = run.joint_positions()[:, 0]
     centre = run.phase_centre
     rows = []
@@ -181,6 +185,8 @@ def _point_cloud_sets(root: Path, doppler_step: float) -> dict:
     from ..ti.formats.radhar import read_recording
 
     out = {}
+    if not root.is_dir():
+        raise FileNotFoundError(f"{root}: no such folder; give a RadHAR-format folder of <class>/*.npz")
     for folder in sorted(p for p in root.iterdir() if p.is_dir()):
         files = sorted(folder.glob("*.npz"))
         if files:
@@ -210,7 +216,7 @@ def main(argv=None) -> int:
         try:
             budget = run_budget(store, frames)
         except (RunStoreError, OobError, FileNotFoundError) as error:
-            print(f"error: {store}: {error}", file=sys.stderr)
+            print(f"error: {error}", file=sys.stderr)
             return 2
         metrics["runs"].append(budget)
         moving = sorted(((s, n) for n, s in budget["segments_moving_share"].items()), reverse=True)[:4]
