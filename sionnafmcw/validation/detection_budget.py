@@ -14,7 +14,7 @@ noise estimate and :math:`T` the ``cfarCfg`` threshold (all in the matrix's log2
 * the person's cells: range bins from the nearest to the farthest joint :math:`\pm 0.1` m; static
   is Doppler bin 0, moving every other bin;
 * CFAR detections at the person's moving cells before and after ``peakGrouping`` and the range
-  window, and the detections of the whole frame against the point limit (:data:`MAX_POINTS` of the
+  window, and the detections of the whole frame against the point limit (100 points in the xWR14xx
   demo, 64 with an elevated transmitter): whether the room's returns use up the budget.
 
 Why a static body takes its own neighbouring Doppler bins: the demo's Hanning window
