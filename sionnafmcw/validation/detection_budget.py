@@ -25,6 +25,20 @@ Why a static body takes its own neighbouring Doppler bins: the demo's Hanning wi
 :math:`\pm 1` that ``peakGrouping``'s Doppler rule removes (the centre is greater), and a limb
 moving at one bin survives only where it is stronger than the static body in its range bin.
 
+The person's echo level (:func:`range_gated_power`, :func:`effective_rcs`): per chirp and channel
+the Blackman-windowed range FFT :math:`Y_b` of :math:`N_f` points; Parseval gives
+:math:`\sum_b |Y_b|^2 = N_f \sum_k |x_k w_k|^2`, so :math:`p_b = |Y_b|^2 / (N_f \sum_k w_k^2)` sums over
+the bins to the power :math:`|a|^2` of a tone :math:`a e^{j\omega k}` and white noise of power
+:math:`P_n = k T_0 F F_s` per sample puts :math:`P_n / N_f` in every bin. The power of the returns
+from a range span is :math:`P = \sum_{b \in \text{gate}} p_b - P_n G / N_f` (:math:`G` bins: the
+span and three bins each side, the Blackman main lobe), averaged over chirps and channels. With
+:math:`P = P_t |a|^2` and the radar equation
+:math:`|a|^2 = \lambda^2 G_t G_r \sigma / ((4\pi)^3 R^4)` (the element gains at the
+direction, :func:`sionnafmcw.antenna.antenna_gain`) the effective RCS is
+:math:`\sigma = P (4\pi)^3 R^4 / (P_t G_t G_r \lambda^2)`: the target's RCS as the board's beam
+and IF chain see it (the high-pass corners take :math:`\prod_i f_b^2/(f_b^2+f_i^2)` off a beat
+frequency :math:`f_b`; static clutter inside the gate, such as the floor under the person, counts).
+
 Per recording set (:func:`moving_share_by_range`): points beyond ``near`` (0.3 m), their share at
 non-zero Doppler (the ROS driver's velocity is the signed bin times :math:`\Delta v`), the
 :math:`|{\rm bin}|` histogram, and per range band the moving share and the 5/50/95 % intensity
@@ -50,6 +64,8 @@ import numpy as np
 RANGE_BANDS = ((0.3, 1.5), (1.5, 2.5), (2.5, 3.5), (3.5, 5.0))
 #: Margin (m) added on each side of the person's joints' range span to take its range bins.
 PERSON_MARGIN = 0.1
+#: Range bins added on each side of a span by :func:`range_gated_power` (the Blackman main lobe).
+GATE_MARGIN_BINS = 3
 #: dB per log2 unit of a magnitude.
 DB_PER_LOG2 = 20 * math.log10(2)
 
@@ -63,6 +79,36 @@ def hanning_leakage(num_chirps: int, offset: int = 1) -> float:
     size = 1 << math.ceil(math.log2(num_chirps))
     spectrum = np.abs(np.fft.fft(w, n=size))
     return float(spectrum[offset % size] / spectrum[0])
+
+
+def range_gated_power(cube, radar, span_m: tuple[float, float], noise: bool = True) -> float:
+    """Mean received power (W) per sample and channel of the returns from ranges ``span_m`` (module
+    docstring); ``noise``: subtract the receiver noise's share of the gate."""
+    from ..constants import BOLTZMANN, T0
+    from ..ti.oob import blackman_q17
+
+    cube = np.asarray(cube)
+    window = blackman_q17(radar.num_samples)
+    size = 1 << math.ceil(math.log2(radar.num_samples))
+    step = 299792458.0 * radar.fs / (2 * radar.slope * size)
+    low = max(int(math.floor(span_m[0] / step)) - GATE_MARGIN_BINS, 0)
+    high = min(int(math.ceil(span_m[1] / step)) + GATE_MARGIN_BINS, size - 1)
+    spectrum = np.fft.fft(cube * window, n=size, axis=-1)[..., low:high + 1]
+    power = float(np.mean(np.sum(np.abs(spectrum) ** 2, axis=-1))) / (size * float(np.sum(window ** 2)))
+    if noise:
+        power -= BOLTZMANN * T0 * 10 ** (radar.noise_figure / 10) * radar.fs * (high - low + 1) / size
+    return power
+
+
+def effective_rcs(power: float, radar, distance: float, azimuth: float, elevation: float = 0.0) -> float:
+    """RCS (m^2) that gives the received ``power`` (W) at ``distance`` (m) in the direction
+    (``azimuth``, ``elevation``, rad, radar frame) through the radar's element pattern (module docstring)."""
+    from ..antenna import antenna_gain, direction_angles
+    from ..echoes import target_direction
+
+    gain = float(np.squeeze(antenna_gain(radar.antenna_pattern, *direction_angles(target_direction(azimuth, elevation)))))
+    wavelength = 299792458.0 / radar.fc
+    return power * (4 * np.pi) ** 3 * distance ** 4 / (radar.tx_power * gain ** 2 * wavelength ** 2)
 
 
 def frame_budget(cube, radar, processing, person_range_m: tuple[float, float]) -> dict:
@@ -124,6 +170,7 @@ def frame_budget(cube, radar, processing, person_range_m: tuple[float, float]) -
 def run_budget(store, frames=None, processing=None) -> dict:
     """:func:`frame_budget` on frames of a run store with one person (default: every tenth done
     frame), and the body segments' radial speeds against half a Doppler bin."""
+    from ..geometry import world_to_radar
     from ..store import RunStoreError, open_run
     from ..ti.oob import run_processing
 
@@ -141,8 +188,16 @@ def run_budget(store, frames=None, processing=None) -> dict:
     rows = []
     for f in frames.tolist():
         span = np.linalg.norm(joints[f] - centre, axis=-1)
-        rows.append({"frame": f, **frame_budget(run.cube(f), radar, processing,
-                                                (float(np.nanmin(span)), float(np.nanmax(span))))})
+        extent = (float(np.nanmin(span)), float(np.nanmax(span)))
+        cube = run.cube(f)
+        pose = run.pose_at(f)
+        body = world_to_radar(np.nanmean(joints[f], axis=0), pose.position, pose.orientation) - radar.phase_centre
+        distance = float(np.linalg.norm(body))
+        azimuth, elevation = math.atan2(body[1], body[0]), math.asin(body[2] / distance)
+        rcs = effective_rcs(range_gated_power(cube, radar, extent), radar, distance, azimuth, elevation)
+        rows.append({"frame": f, **frame_budget(cube, radar, processing, extent),
+                     "body_azimuth_deg": math.degrees(azimuth), "body_elevation_deg": math.degrees(elevation),
+                     "effective_rcs_dbsm": 10 * math.log10(rcs) if rcs > 0 else float("-inf")})
     doppler_step = radar.centre_wavelength / (2 * radar.num_tx * radar.chirp_interval *
                                               (1 << math.ceil(math.log2(radar.num_chirps))))
     speed = np.abs(np.asarray(run.dataset["truth_radial_velocity"].values))[done]
@@ -230,7 +285,8 @@ def main(argv=None) -> int:
                   f"{row['moving_margin_log2'] * DB_PER_LOG2:+.1f} dB (|bin| >= 2: "
                   f"{row['moving_beyond_leakage_margin_log2'] * DB_PER_LOG2:+.1f} dB, "
                   f"{row['person_moving_beyond_leakage_hits']} hits); over floor static "
-                  f"{row['person_static_over_floor_db']:.1f} dB, moving {row['person_moving_over_floor_db']:.1f} dB")
+                  f"{row['person_static_over_floor_db']:.1f} dB, moving {row['person_moving_over_floor_db']:.1f} dB; "
+                  f"effective RCS {row['effective_rcs_dbsm']:.1f} dBsm at {row['body_azimuth_deg']:+.0f} deg")
     step = (metrics["runs"][0]["doppler_step"] if metrics["runs"] else 0.614668667316)
     for label, root in (("real", args.real), ("synthetic", args.synthetic)):
         if root is None:
@@ -249,5 +305,5 @@ def main(argv=None) -> int:
     return 0
 
 
-__all__ = ["DB_PER_LOG2", "PERSON_MARGIN", "RANGE_BANDS", "frame_budget", "hanning_leakage", "main",
-           "moving_share_by_range", "run_budget"]
+__all__ = ["DB_PER_LOG2", "GATE_MARGIN_BINS", "PERSON_MARGIN", "RANGE_BANDS", "effective_rcs", "frame_budget",
+           "hanning_leakage", "main", "moving_share_by_range", "range_gated_power", "run_budget"]
