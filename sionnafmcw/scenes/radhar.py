@@ -28,7 +28,7 @@ at :math:`(r\cos\varphi, r\sin\varphi)`, and faces the radar turned by ``heading
 :math:`\delta`: heading :math:`\varphi + \pi + \delta` (:math:`\delta = 0`: facing the radar). A walk
 crosses the line of sight instead: heading :math:`\varphi + \pi/2 + \delta` (:math:`\delta = 0`: to
 the radar's left, ``mirror`` or :math:`\delta = \pi` the other way), and :math:`(r, \varphi)` places
-its middle (the pelvis at the middle frame), so that a walk of a few metres at 1-3 m from the radar
+its middle (the pelvis at the middle frame), so that a walk of a few metres at 1-2.5 m from the radar
 stays in front of it rather than running into it (a pelvis nearer than :data:`MIN_CLEARANCE` is an
 error). With
 ``room`` the room encloses the person's motion and the radar with ``room_margin`` on every side (its
