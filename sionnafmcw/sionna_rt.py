@@ -354,7 +354,7 @@ class KernelCounts:
 
 
 def aligned_float(values) -> "mi.Float":
-    """``values`` as a Dr.Jit Float from a 64-byte aligned float32 copy.
+    """``values`` as a Dr.Jit Float from a 64-byte aligned, padded float32 copy (:func:`aligned_copy`).
 
     Dr.Jit reads numpy memory as it is and compiles the alignment of each input into the
     kernel (``align 1`` vs ``align 64``): inputs with varying alignment would give the same
@@ -363,15 +363,41 @@ def aligned_float(values) -> "mi.Float":
     return mi.Float(aligned_copy(values, np.float32))
 
 
+#: Elements after its end that a Dr.Jit LLVM kernel may read of an input array (:func:`aligned_copy`).
+LLVM_TAIL_PAD = 32
+
+
 def aligned_copy(values, dtype) -> np.ndarray:
-    """A flat copy of ``values`` as ``dtype`` whose first element is 64-byte aligned (what Dr.Jit's LLVM
-    backend maps without a copy: a Dr.Jit array made from it and the numpy array share memory)."""
+    r"""A flat copy of ``values`` as ``dtype``, its first element 64-byte aligned and followed by
+    :data:`LLVM_TAIL_PAD` readable elements (zeros).
+
+    Dr.Jit's LLVM backend maps a contiguous numpy array without a copy (the Dr.Jit array and the
+    numpy array share memory), and its kernels load their inputs in whole vectors of :math:`W`
+    lanes (:math:`W = 16` with AVX-512, 8 with AVX2), the last vector included: for an array of
+    :math:`n` elements a kernel reads up to element :math:`W\lceil n/W\rceil - 1`, i.e. up to
+    :math:`W - 1` elements past the end (the lanes beyond :math:`n` are masked out of the result,
+    not out of the load). Dr.Jit's own allocations are padded for this; a numpy array is not, and
+    one that ends at the end of its memory mapping (a large array is mapped by itself, and its end
+    meets the mapping's end where its size plus the allocator's header is a whole number of pages)
+    makes the kernel read an unmapped page: a segmentation fault, on AVX-512 machines for arrays
+    ending within 60 (float32) or 120 (float64) bytes of a page end. Every numpy array handed to a
+    Dr.Jit kernel goes through this copy (:func:`aligned_float`, :func:`aligned_float64`,
+    :func:`drjit_array`); ``tests/test_drjit_inputs.py`` shows the fault on an unpadded array ending
+    at a guard page and none through this copy.
+    """
     values = np.asarray(values, dtype=dtype).ravel()
-    buffer = np.empty(values.size + 64 // np.dtype(dtype).itemsize, dtype=dtype)
+    buffer = np.empty(values.size + 64 // np.dtype(dtype).itemsize + LLVM_TAIL_PAD, dtype=dtype)
     start = (-buffer.ctypes.data % 64) // buffer.itemsize
     aligned = buffer[start:start + values.size]
     aligned[:] = values
+    buffer[start + values.size:] = 0
     return aligned
+
+
+def drjit_array(array_type, values, dtype):
+    """``values`` as the Dr.Jit ``array_type`` (e.g. ``mi.UInt32``, ``drjit.llvm.Int32``) from an
+    :func:`aligned_copy` as numpy ``dtype`` (the type's element type)."""
+    return array_type(aligned_copy(values, dtype))
 
 
 def array_backend():
@@ -465,10 +491,10 @@ def track_kernels(enabled: bool, seen_hashes: set):
 
 __all__ = [
     "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
-    "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
+    "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LLVM_TAIL_PAD", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
     "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
     "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_copy", "aligned_float", "aligned_float64", "antenna_pattern_registry",
-    "array_backend", "cast_rays", "cast_scene", "check_versions", "dr", "drjit_element_gain", "installed_versions",
+    "array_backend", "cast_rays", "cast_scene", "check_versions", "dr", "drjit_array", "drjit_element_gain", "installed_versions",
     "load_scene_at", "sionna_antenna_pattern",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
 ]

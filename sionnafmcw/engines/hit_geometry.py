@@ -44,7 +44,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..sionna_rt import aligned_copy, aligned_float64, array_backend, dr
+from ..sionna_rt import aligned_copy, aligned_float64, array_backend, dr, drjit_array
 
 #: Per-triangle and per-parent columns of :class:`RefinedTables` (flattened, row-major).
 ROW_COLUMNS = (("parent_params", 6), ("corner_normals", 9), ("gradients", 9))
@@ -80,7 +80,7 @@ class RefinedTables:
             row += len(s.faces)
             prow += len(pn.control)
         self.num_rows = row
-        self.parent = b.UInt32(np.concatenate(parent_index).astype(np.uint32)) if parent_index else None
+        self.parent = drjit_array(b.UInt32, np.concatenate(parent_index), np.uint32) if parent_index else None
         # Dr.Jit maps the aligned numpy buffers (LLVM: no copy); the surfaces' own arrays become views
         # of the same buffers, so the tables cost only the normal gradients, which numpy never kept
         buffers = {name: aligned_copy(np.concatenate(v).ravel(), np.float64)
@@ -132,8 +132,8 @@ def refined_hit_geometry(tables: RefinedTables, objects, obj, triangle, bary):
     num = len(obj)
     if num == 0:
         return np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3, 3))
-    row = UInt32((tables.offset[obj] + np.asarray(triangle, dtype=np.int64)).astype(np.uint32))
-    o = UInt32(obj.astype(np.uint32))
+    row = drjit_array(UInt32, tables.offset[obj] + np.asarray(triangle, dtype=np.int64), np.uint32)
+    o = drjit_array(UInt32, obj, np.uint32)
     b1, b2 = aligned_float64(bary[:, 0], b), aligned_float64(bary[:, 1], b)
     col = tables.columns
 

@@ -136,7 +136,7 @@ from ..constants import SPEED_OF_LIGHT, VACUUM_PERMITTIVITY
 from ..diffuse import cells_per_edge
 from ..echoes import Echoes
 from ..electromagnetics import copolar_fraction, dot, lambertian_pattern, reflection_power, vertical_polarisation
-from ..sionna_rt import LambertianPattern, dr, mi
+from ..sionna_rt import LambertianPattern, aligned_float, dr, mi
 from .errors import PixelEngineError
 from .pixel_grid import PixelRender
 
@@ -336,11 +336,11 @@ def scattering_pattern(obj, mats, normal, k_in, k_out, cos_s):
         for m in range(ms):
             for n in range(ns):
                 nrm = normal[sel] * np.sign(-dot(normal[sel], k_in[m, sel]))[:, None]  # towards the incident side
-                frame = mi.Frame3f(mi.Vector3f(*[mi.Float(np.ascontiguousarray(nrm[:, i], dtype=np.float32))
+                frame = mi.Frame3f(mi.Vector3f(*[aligned_float(nrm[:, i])
                                                  for i in range(3)]))
-                ki = frame.to_local(mi.Vector3f(*[mi.Float(np.ascontiguousarray(k_in[m, sel, i], dtype=np.float32))
+                ki = frame.to_local(mi.Vector3f(*[aligned_float(k_in[m, sel, i])
                                                   for i in range(3)]))
-                ko = frame.to_local(mi.Vector3f(*[mi.Float(np.ascontiguousarray(k_out[n, sel, i], dtype=np.float32))
+                ko = frame.to_local(mi.Vector3f(*[aligned_float(k_out[n, sel, i])
                                                   for i in range(3)]))
                 value = mat.pattern(ki, ko)
                 dr.eval(value)

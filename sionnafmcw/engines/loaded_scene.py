@@ -29,7 +29,7 @@ import numpy as np
 
 from ..animation import Animation
 from ..materials import apply_custom_materials, check_scene_materials
-from ..sionna_rt import dr, load_scene_at, mi
+from ..sionna_rt import aligned_float, dr, load_scene_at, mi
 from .errors import SceneGeometryError, SceneLoadError
 
 
@@ -132,8 +132,7 @@ class LoadedScene:
         return state
 
     def _write_vertices(self, name: str, vertices) -> None:
-        self.params[f"{self.shape_ids[name]}.vertex_positions"] = mi.Float(
-            np.ascontiguousarray(vertices.ravel(), dtype=np.float32))
+        self.params[f"{self.shape_ids[name]}.vertex_positions"] = aligned_float(vertices)
 
     def update_geometry(self, animation: Animation, frame: int) -> bool:
         """Write the meshes of ``frame`` whose PLY (file, mtime or transform) changed; True if any did.

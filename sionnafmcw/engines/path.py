@@ -144,7 +144,7 @@ from ..animation import Animation, RadarPose
 from ..constants import SPEED_OF_LIGHT
 from ..echoes import Echoes
 from ..geometry import rotation_matrix
-from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, dr, mi, sionna_antenna_pattern
+from ..sionna_rt import AntennaArray, PathSolver, Receiver, Transmitter, aligned_float, dr, mi, sionna_antenna_pattern
 from .base import Engine
 from .cpi_motion import (
     broadcast_rates, check_cpi_motion, frame_motion, interaction_accelerations, path_ends, render_range_accelerations,
@@ -414,7 +414,7 @@ class PathEngine(Engine):
 
         def array(positions, pat):
             p = np.asarray(positions, dtype=float) / wavelength
-            return AntennaArray(pat, mi.Point3f(mi.Float(p[:, 0]), mi.Float(p[:, 1]), mi.Float(p[:, 2])))
+            return AntennaArray(pat, mi.Point3f(*[aligned_float(p[:, i]) for i in range(3)]))
 
         if self.coherent:
             tx_positions = radar.tx_positions.mean(axis=0, keepdims=True)

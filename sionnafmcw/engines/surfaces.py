@@ -195,14 +195,14 @@ def _vertex_map(refined) -> tuple:
 
 def mitsuba_mesh(name: str, vertices, faces):
     """A Mitsuba triangle mesh of ``vertices [V, 3]`` (float32) and ``faces [F, 3]``."""
-    from ..sionna_rt import mi
+    from ..sionna_rt import aligned_float, drjit_array, mi
 
     v = np.ascontiguousarray(np.asarray(vertices, dtype=np.float32).ravel())
     f = np.ascontiguousarray(np.asarray(faces, dtype=np.uint32).ravel())
     mesh = mi.Mesh(name, len(v) // 3, len(f) // 3, has_vertex_normals=False, has_vertex_texcoords=False)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(v)
-    params["faces"] = mi.UInt32(f)
+    params["vertex_positions"] = aligned_float(v)
+    params["faces"] = drjit_array(mi.UInt32, f, np.uint32)
     params.update()
     return mesh
 
@@ -360,7 +360,7 @@ class SurfaceWorld:
     def _rewrite(surface: Surface, vertices) -> None:
         """A deforming surface in this frame: the stored mesh's vertices (rebuilt at the surface's level:
         the same topology) written into its scene, normals and figures recomputed."""
-        from ..sionna_rt import dr, mi
+        from ..sionna_rt import aligned_float, dr, mi
         from .po_render import curvature_radius, flat_shaded
 
         new = Surface.build(surface.name, surface.kind, vertices, surface.mesh_faces, level=surface.level)
@@ -377,7 +377,7 @@ class SurfaceWorld:
         surface.centroid = area_centroid(surface.vertices, surface.faces)
         params = mi.traverse(surface.scene)
         key = next(k for k in params.keys() if k.endswith("vertex_positions"))
-        params[key] = mi.Float(np.ascontiguousarray(surface.vertices.ravel(), dtype=np.float32))
+        params[key] = aligned_float(surface.vertices)
         params.update()
         dr.eval()
 
@@ -430,7 +430,7 @@ class SurfaceWorld:
         atlas (:math:`\mathbf R^T(\mathbf o + t_{in}\hat{\mathbf d} - \mathbf c) + \mathbf s`,
         :math:`\mathbf R^T\hat{\mathbf d}`, ``maxt`` to where it leaves the sphere) or, for a deforming
         surface, cast into its own scene; the nearer hit wins."""
-        from ..sionna_rt import aligned_float, dr, mi
+        from ..sionna_rt import aligned_float, dr, drjit_array, mi
 
         if group not in GROUPS:
             raise ValueError(f"SurfaceWorld.cast: group={group!r} is unknown; choose one of {', '.join(GROUPS)}")
@@ -450,7 +450,7 @@ class SurfaceWorld:
             key = dr.reinterpret_array(mi.UInt32, pi.shape)
             table = np.full(max(self.static_keys) + 1, -1, dtype=np.int32)
             table[list(self.static_keys)] = list(self.static_keys.values())
-            index = dr.gather(mi.Int32, mi.Int32(table), dr.minimum(key, len(table) - 1))
+            index = dr.gather(mi.Int32, drjit_array(mi.Int32, table, np.int32), dr.minimum(key, len(table) - 1))
             hit = pi.is_valid() & (index >= 0)
             best = dr.select(hit, pi.t, best)
             obj, prim = dr.select(hit, index, obj), dr.select(hit, pi.prim_index, prim)
