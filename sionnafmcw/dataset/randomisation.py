@@ -39,10 +39,10 @@ RADHAR_RANGES = {
     "mirror": ({"choice": [False, True]}, "either side leads (left- and right-handed, either foot first)"),
     "fist_speed": ({"uniform": [4.0, 9.0]}, "boxing: straight punches of recreational to trained boxers (6.3 m/s "
                    "jab of juniors, 7.5-9.3 m/s in combinations and maximal punches; sionnafmcw.mocap.punches)"),
-    "punch_rate": ({"uniform": [1.0, 2.4]}, "boxing: shadow-boxing tempo, one to 2.4 punches a second; at most 2.4/s "
+    "punch_rate": ({"uniform": [1.0, 1.8]}, "boxing: shadow-boxing tempo, one to 1.8 punches a second; at most 1.8/s "
                    "because two starts of one fist (each jittered by +-20 % of the period) come at least 1.6/rate "
-                   "apart and the slowest punch of these ranges (4 m/s with a 0.9 rad trunk turn) takes 0.65 s out "
-                   "and back"),
+                   "apart and the slowest punch of these ranges (4 m/s with a 0.9 rad trunk turn) takes up to 0.81 s "
+                   "out and back"),
     "trunk_rotation": ({"uniform": [0.3, 0.9]}, "boxing: thorax axial rotation of a rear-hand straight, 17-52 "
                        "degrees: boxers turn the trunk into the cross by tens of degrees, more or less by style and "
                        "skill (sionnafmcw.mocap.punches; the spread is assumed)"),
