@@ -61,16 +61,17 @@ Trunk
 -----
 The rear-hand straight (cross) is driven by the legs and the trunk: the pelvis turns about the
 vertical toward the punch, the thorax turns further and later, and the fist follows (a proximal-to-
-distal sequence). Measured: Dinu & Louis 2020 (Front. Sports Act. Living 2:598861, 3-D motion capture
-of junior and elite boxers): rear-hand punches are marked by large pelvis and thorax axial rotation
-with peak trunk rotation velocities of several hundred degrees per second, sequenced pelvis before
-thorax before fist; Lenetsky et al. 2020 (Sports Med. 50:1-25, review of striking biomechanics): the
-lower-body drive and the trunk's rotation contribute a large part of the fist's speed, a weight
-shift onto the lead leg accompanies the straight; Cheraghi et al. 2014 (Int. J. Sports Sci. Eng. 8:
-a full-body marker study of the cross) and Whiting, Gregor & Finerman 1988 (Med. Sci. Sports Exerc.
-20(5):524-528, the kinematics of the boxing cross): the trunk rotates through tens of degrees during
-the cross. The exact angles vary between studies and boxers and this module does not reproduce one
-table: the figures below are **assumptions** within those orders of magnitude.
+distal sequence). Traced sources: Dinu & Louis 2020 (Front. Sports Act. Living 2:598861; 17-IMU suits on
+15 elite and 8 junior boxers): the punch comes from a proximal-to-distal synchronisation of the body's
+segments, and in the cross the front foot carries more of the ground reaction force than the rear
+(60.6 / 39.4 % elite, 54.1 / 45.9 % junior): a forward weight shift; Dinu, Millot, Slawinski & Louis
+2020 (Proceedings 49(1):61): the cross is a forward translation of the body, and elite bouts show about
+56 vertical hip movements a minute; Lenetsky, Harris & Brughelli 2013 (Strength Cond. J. 35(2):1-7):
+punching moves the arm, the trunk and the legs, the lower body a primary contributor. The angles and
+rates of the pelvis's and the thorax's axial rotation (tens of degrees, peak trunk rates of several
+hundred deg/s, as Whiting, Gregor & Finerman 1988, Med. Sci. Sports Exerc. 20(5), and Cheraghi et al.
+2014 are cited for them) were not read for this module: the figures below are **assumptions** of
+those orders of magnitude, and so are the shift's size and the bounce.
 
 * Thorax axial rotation of a cross :math:`\psi_t` = ``trunk_rotation`` (default 0.6 rad, 34 deg;
   range 0.3-0.9 rad, 17-52 deg); the pelvis turns :data:`PELVIS_SHARE` of it (the thorax turns further
@@ -82,7 +83,7 @@ table: the figures below are **assumptions** within those orders of magnitude.
   t_0 + T]` (:math:`t_0` the fist's start, :math:`T` its extension): both on minimum-jerk profiles that
   end when the fist arrives, the pelvis first; both turn back over the fist's retraction. Peak
   angular rate of the thorax :math:`\frac{15}{8}\psi_t/(1.2T)`: 0.6 rad over 1.2 x 0.146 s (a 7.2 m/s
-  cross) gives 369 deg/s, within the several hundred deg/s measured.
+  cross) gives 369 deg/s, of the several hundred deg/s the literature is cited for.
 * Weight shift: the pelvis (and the trunk on it) moves forward by ``weight_shift`` (default 0.05 m,
   an assumption; the jab :data:`JAB_SHARE` of it) on the thorax's profile.
 * Stance: the pelvis sits :data:`STANCE_CROUCH` (0.03 m, assumed) below the captured standing
