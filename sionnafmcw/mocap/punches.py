@@ -148,13 +148,18 @@ class Punches:
         self.thorax = np.zeros(len(self.sides)) if thorax is None else np.asarray(thorax, float)
         self.shift = np.zeros(len(self.sides)) if shift is None else np.asarray(shift, float)
 
+    def stroke_of(self, k: int, times) -> np.ndarray:
+        """Fraction ``[T]`` of the way from guard to target of punch ``k``'s fist at clip ``times``."""
+        times = np.asarray(times, float)
+        t0, te, tr = self.starts[k], self.extension[k], self.retraction[k]
+        return minimum_jerk((times - t0) / te) - minimum_jerk((times - t0 - te) / tr)
+
     def stroke(self, side: str, times) -> np.ndarray:
         """Fraction ``[T]`` of the way from guard to target of the ``side`` fist at clip ``times``."""
-        times = np.asarray(times, float)
-        out = np.zeros(times.shape)
-        for sd, t0, te, tr in zip(self.sides, self.starts, self.extension, self.retraction):
+        out = np.zeros(np.shape(times))
+        for k, sd in enumerate(self.sides):
             if sd == side:
-                out += minimum_jerk((times - t0) / te) - minimum_jerk((times - t0 - te) / tr)
+                out += self.stroke_of(k, times)
         return out
 
     def trunk(self, times, lead: float) -> np.ndarray:
@@ -229,27 +234,25 @@ class Trunk:
         return self.spine[-1][1]
 
 
-def _fist_paths(pose, punches, geometry, shoulders, centre, fwd, arm_reach, times, unit, bounce, bounce_rate):
-    """The fists' tips ``{side: [T, 3]}`` at ``times`` (file units), the targets per punch, and the trunk."""
+def _fist_paths(pose, punches, guards, shoulders, centre, fwd, reach, times, unit, bounce, bounce_rate):
+    r"""The fists' tips ``{side: [T, 3]}`` at ``times`` (file units) and the :class:`Trunk`.
+
+    Punch :math:`k`'s target is the point :math:`\mathbf c + s\hat{\mathbf f}` of the line ahead of the
+    posture's mid-shoulders at the reach :math:`\rho` from its shoulder :math:`\mathbf s` where the thorax
+    carries it when the fist arrives: with :math:`\mathbf d = \mathbf s - \mathbf c`,
+    :math:`s = \mathbf d\cdot\hat{\mathbf f} + \sqrt{\rho^2 - |\mathbf d|^2 + (\mathbf d\cdot\hat{\mathbf f})^2}`.
+    The tip runs from the guard the thorax carries, :math:`\mathbf G(t)`, by the stroke :math:`u_k(t)`:
+    :math:`\mathbf x = \mathbf G + \sum_k(\mathbf p_k - \mathbf G)u_k` (one fist's strokes do not overlap).
+    """
     trunk = Trunk(pose, punches, times, unit, bounce, bounce_rate)
-    paths = {}
-    targets = []
-    for i, (side, t0, te) in enumerate(zip(punches.sides, punches.starts, punches.extension)):
-        at = Trunk(pose, punches, np.array([t0 + te]), unit, bounce, bounce_rate)
-        s = at.carry(shoulders[side])[0]
-        d = s - centre
+    paths = {side: trunk.carry(guards[side]) for side in ("left", "right")}
+    tips = {side: g.copy() for side, g in paths.items()}
+    for k, (side, t0, te) in enumerate(zip(punches.sides, punches.starts, punches.extension)):
+        d = Trunk(pose, punches, np.array([t0 + te]), unit, bounce, bounce_rate).carry(shoulders[side])[0] - centre
         along = d @ fwd
-        reach = arm_reach[side]
-        targets.append(centre + (along + math.sqrt(max(reach**2 - d @ d + along**2, 0.0))) * fwd)
-    for side in ("left", "right"):
-        guard = trunk.carry(geometry[side][2])
-        x = guard.copy()
-        for i, sd in enumerate(punches.sides):
-            if sd == side:
-                one = Punches([sd], punches.starts[i:i + 1], punches.extension[i:i + 1], punches.retraction[i:i + 1])
-                x += (targets[i] - guard) * one.stroke(side, times)[:, None]
-        paths[side] = x
-    return paths, targets, trunk
+        target = centre + (along + math.sqrt(max(reach[side] ** 2 - d @ d + along**2, 0.0))) * fwd
+        tips[side] += (target - paths[side]) * punches.stroke_of(k, times)[:, None]
+    return tips, trunk
 
 
 def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, fist_speed: float = FIST_SPEED,
@@ -296,6 +299,7 @@ def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, f
         target = centre + math.sqrt(max((REACH * arm) ** 2 - half_width**2, 0.0)) * fwd
         geometry[side] = (S, sigma, guard, target)
         arm_reach[side] = REACH * arm
+    guards = {side: g[2] for side, g in geometry.items()}
 
     rng = np.random.default_rng(seed)
     period = 1.0 / punch_rate
@@ -325,7 +329,7 @@ def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, f
         scale = np.empty(len(sides))
         for k, (side, t0, te) in enumerate(zip(sides, starts, ext)):
             tt = np.arange(t0 - PELVIS_LEAD * te, t0 + te * (1 + retraction_ratio) + h, h)
-            x = _fist_paths(pose, punches, geometry, shoulders, centre, fwd, arm_reach, tt, unit, bounce,
+            x = _fist_paths(pose, punches, guards, shoulders, centre, fwd, arm_reach, tt, unit, bounce,
                             bounce_rate)[0][side]
             scale[k] = np.linalg.norm(np.diff(x, axis=0), axis=1).max() / h * unit / fist_speed
         ext = ext * scale
@@ -340,8 +344,8 @@ def boxing_clip(base: BvhClip, base_time: float, unit: float, duration: float, f
             raise ValueError(f"punch_rate={punch_rate}/s is too fast for fist_speed={fist_speed} m/s: a fist's "
                              f"punch takes {ext[k - 2] * (1 + retraction_ratio):.3f} s; lower punch_rate or raise "
                              "fist_speed")
-    paths, _, trunk = _fist_paths(pose, punches, geometry, shoulders, centre, fwd, arm_reach, pose.times, unit,
-                                  bounce, bounce_rate)
+    paths, trunk = _fist_paths(pose, punches, guards, shoulders, centre, fwd, arm_reach, pose.times, unit, bounce,
+                               bounce_rate)
     # the trunk: root translation and rotation, the spine's extra turn (module docstring)
     root = 0
     sl = pose.slices[root]
