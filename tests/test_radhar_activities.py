@@ -192,3 +192,105 @@ def test_mirror_reflects_the_skeleton_left_for_right():
     p = _params("jumping_jacks", num_frames=20)
     a, b = mocap_person("13_29_jacks", p).keypoints(), mocap_person("13_29_jacks", {**p, "mirror": True}).keypoints()
     assert np.allclose(a[:, K("right_wrist"), 2], b[:, K("left_wrist"), 2], atol=1e-3)
+
+
+def _boxer(fps, seconds, **over):
+    p = _params("boxing", fps=fps, num_frames=int(seconds * fps), **over)
+    person, punches = boxing_person(p)
+    return p, person, punches
+
+
+def test_boxing_thorax_turns_rigidly_toward_each_punch():
+    """The shoulders and the neck ride on the thorax: the horizontal vector from the neck to a shoulder turns by
+    the thorax's axial rotation :math:`\\psi_t(t)` of the punch schedule, and moves at :math:`r\\dot\\psi_t`
+    (:math:`r` its horizontal length, closed form of a rigid turn about the vertical); a cross turns the trunk
+    toward the punching side, at a peak rate of several hundred deg/s."""
+    fps = 960.0
+    p, person, punches = _boxer(fps, 2.0, fist_speed=7.2)
+    kp = person.keypoints()
+    t = np.arange(len(kp)) / fps
+    psi = punches.thorax_rotation(t)
+    rate = np.gradient(psi, t)
+    assert 200.0 < np.degrees(np.abs(rate).max()) < 1000.0          # "several hundred deg/s"
+    for side in ("left", "right"):
+        d = kp[:, K(f"{side}_shoulder")] - kp[:, K("neck")]
+        angle = np.unwrap(np.arctan2(d[:, 1], d[:, 0]))
+        # the scene's z is up and the person faces the radar (a turn toward the left is + about z, as in BVH)
+        np.testing.assert_allclose(angle - angle[0], psi - psi[0], atol=1e-3)
+        # on the keyframes (every other frame at 960 fps; between them the clip is slerped at constant rate)
+        dk, tk = d[::2], t[::2]
+        speed = np.linalg.norm(np.diff(dk, axis=0), axis=1) / np.diff(tk)
+        r = np.linalg.norm(dk[:, :2], axis=1)
+        mid = 0.5 * (tk[1:] + tk[:-1])
+        mid_rate = (punches.thorax_rotation(mid + 1e-6) - punches.thorax_rotation(mid - 1e-6)) / 2e-6
+        fast = np.abs(mid_rate) > 0.5 * np.abs(rate).max()
+        np.testing.assert_allclose(speed[fast], (r[1:] * np.abs(mid_rate))[fast], rtol=0.01)
+    crosses = [k for k, s in enumerate(punches.sides) if s == "right"]
+    assert all(punches.thorax[k] > 0 for k in crosses) and all(punches.thorax[k] < 0 for k in range(len(punches.sides))
+                                                                if k not in crosses)
+
+
+def test_boxing_pelvis_bounces_and_the_skeleton_stays_connected():
+    """The pelvis's height is the stance bounce :math:`-\\tfrac{b}{2}(1 - \\cos 2\\pi f_b t)` (the trunk's turn is
+    about the vertical, the weight shift horizontal); bones keep their lengths and the feet stay planted."""
+    from sionnafmcw.mocap.punches import bounce_height
+
+    fps = 960.0
+    p, person, punches = _boxer(fps, 2.0)
+    kp = person.keypoints()
+    t = np.arange(len(kp)) / fps
+    z = kp[:, K("pelvis"), 2]
+    np.testing.assert_allclose(z - z[0], bounce_height(t, p["bounce"], p["bounce_rate"]), atol=1e-5)
+    assert np.ptp(z) == pytest.approx(p["bounce"], rel=0.01)
+    bones = [("left_shoulder", "left_elbow"), ("left_elbow", "left_wrist"), ("right_shoulder", "right_elbow"),
+             ("right_elbow", "right_wrist"), ("left_hip", "left_knee"), ("left_knee", "left_ankle"),
+             ("right_hip", "right_knee"), ("right_knee", "right_ankle"), ("pelvis", "left_hip"),
+             ("pelvis", "right_hip"), ("neck", "left_shoulder"), ("neck", "right_shoulder"), ("neck", "head")]
+    for a, b in bones:
+        length = np.linalg.norm(kp[:, K(a)] - kp[:, K(b)], axis=1)
+        np.testing.assert_allclose(length, length[0], rtol=1e-6, err_msg=f"{a}-{b}")
+    for side in ("left", "right"):
+        ankle = kp[:, K(f"{side}_ankle")]
+        # on the keyframes (every other frame) exactly; the slerp between them strays by micrometres
+        np.testing.assert_allclose(ankle[::2], np.broadcast_to(ankle[0], ankle[::2].shape), atol=1e-9)
+        np.testing.assert_allclose(ankle, np.broadcast_to(ankle[0], ankle.shape), atol=1e-4)
+
+
+def test_boxing_trunk_moves_a_doppler_bin_and_no_faster_than_its_turn_allows():
+    """The trunk's segments (pelvis, abdomen, thorax) reach a radial speed of at least one Doppler bin of RadHAR's
+    IWR1443 .cfg towards a radar in front of the boxer, and no vertex of them moves faster than a rigid chain of
+    vertical-axis turns allows: :math:`|\\mathbf v| \\le |\\mathbf v_{\\rm pelvis}| + \\omega_{\\max}(r + 2\\sum_k
+    a_k)`, :math:`r` the vertex's horizontal distance from the pelvis joint, :math:`a_k` the horizontal lengths of
+    the spine's links (triangle inequality), :math:`\\omega_{\\max}` the fastest turn of the pelvis or thorax."""
+    from sionnafmcw.mocap.keyframes import HeldPosture
+    from sionnafmcw.mocap.library import load_clip
+    from sionnafmcw.mocap.punches import SPINE
+    from sionnafmcw.mocap.segments import leg_stature
+    from sionnafmcw.mocap.skeleton import CMU_UNIT
+    from sionnafmcw.scenes.activities import BOXING_POSTURE
+
+    fps = 240.0
+    p, person, punches = _boxer(fps, 1.2)
+    base = load_clip(BOXING_POSTURE[0])
+    unit = CMU_UNIT * p["person_height"] / leg_stature(ClipMotion(base, CMU_UNIT))
+    pose = HeldPosture(base, BOXING_POSTURE[1], 1)
+    chain = [pose.world_origins[0]] + [pose.world_origins[pose.joint(n)] for n, _ in SPINE]
+    links = sum(np.hypot(*(b - a)[[0, 2]]) for a, b in zip(chain[:-1], chain[1:])) * unit
+    tt = np.arange(0.0, 1.2, 1e-4)
+    omega = max(np.abs(np.gradient(punches.thorax_rotation(tt), tt)).max(),
+                np.abs(np.gradient(punches.pelvis_rotation(tt), tt)).max())
+    frames = np.arange(int(1.2 * fps) - 1)
+    verts = [person.world_vertices(i) for i in frames]
+    pelvis = person.keypoints(frames)[:, K("pelvis")]
+    v_pelvis = np.linalg.norm(np.diff(pelvis, axis=0), axis=1).max() * fps
+    radar = np.array([p["x"] + p["radar_distance"], p["y"], p["radar_height"]])    # in front (heading 0: +x)
+    # RadHAR's .cfg: chirps of 7 us idle + 57.14 us ramp at 77 GHz, 16 loops of 3 Tx (design notes, section 8)
+    bin_v = 299792458.0 / (2 * 77e9 * 16 * 3 * 64.14e-6)
+    for seg in ("pelvis", "abdomen", "torso"):
+        x = np.array([v[seg] for v in verts])                                  # [frame, vertex, 3]
+        rng = np.linalg.norm(x - radar, axis=2)
+        v_r = np.abs(np.diff(rng, axis=0)) * fps
+        speed = np.linalg.norm(np.diff(x, axis=0), axis=2) * fps
+        r = np.linalg.norm((x - pelvis[:, None])[..., :2], axis=2).max()
+        assert v_r.max() >= bin_v, seg
+        assert speed.max() <= v_pelvis + omega * (r + 2 * links), seg

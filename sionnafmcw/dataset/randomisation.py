@@ -40,7 +40,18 @@ RADHAR_RANGES = {
     "mirror": ({"choice": [False, True]}, "either side leads (left- and right-handed, either foot first)"),
     "fist_speed": ({"uniform": [4.0, 9.0]}, "boxing: straight punches of recreational to trained boxers (6.3 m/s "
                    "jab of juniors, 7.5-9.3 m/s in combinations and maximal punches; sionnafmcw.mocap.punches)"),
-    "punch_rate": ({"uniform": [1.0, 3.0]}, "boxing: shadow-boxing tempo, one to three punches a second"),
+    "punch_rate": ({"uniform": [1.0, 1.8]}, "boxing: shadow-boxing tempo, one to 1.8 punches a second; at most 1.8/s "
+                   "because two starts of one fist (each jittered by +-20 % of the period) come at least 1.6/rate "
+                   "apart and the slowest punch of these ranges (4 m/s with a 0.9 rad trunk turn) takes up to 0.81 s "
+                   "out and back"),
+    "trunk_rotation": ({"uniform": [0.3, 0.9]}, "boxing: thorax axial rotation of a rear-hand straight, 17-52 "
+                       "degrees: boxers turn the trunk into the cross by tens of degrees, more or less by style and "
+                       "skill (sionnafmcw.mocap.punches; the spread is assumed)"),
+    "weight_shift": ({"uniform": [0.02, 0.08]}, "boxing: forward shift of the pelvis in a cross, 2-8 cm (assumed: "
+                     "a weight shift onto the lead leg without a full step)"),
+    "bounce": ({"uniform": [0.0, 0.05]}, "boxing: peak-to-peak stance bounce on the balls of the feet, from flat-"
+               "footed to a lively bounce (assumed)"),
+    "bounce_rate": ({"uniform": [2.0, 3.0]}, "boxing: rate of the stance bounce (assumed, a rhythm of about 2-3 Hz)"),
     "jump_height": ({"uniform": [0.08, 0.3]}, "jump: apex rise of repeated jumps in place, a hop to a brisk jump "
                     "(a maximal countermovement jump reaches about 0.45 m)"),
     "crouch": ({"uniform": [0.08, 0.2]}, "jump: depth of the countermovement and of the landing"),

@@ -124,7 +124,7 @@ def place_limb(pose: HeldPosture, root: str, middle: str, end: str, root_pos, ta
                parent_world=None, end_world=None, extension: float = 0.0, what: str = "limb") -> np.ndarray:
     """Put joint ``end`` on ``target`` [n, 3] (module docstring) with the limb's root joint at ``root_pos``
     [n, 3] (its posture's position when the body does not move), the middle joint towards ``pole`` ([3] or
-    [n, 3]); ``parent_world`` the root's parent's world rotation (default the posture's), ``end_world`` a world
+    [n, 3]); ``parent_world`` the root's parent's world rotation ([3, 3] or [n, 3, 3]; default the posture's), ``end_world`` a world
     rotation [3, 3] to hold the end joint at (default: its local rotation kept). With ``extension`` (file
     units) the point that far beyond ``end`` along the last bone goes on ``target`` instead (the tip of a
     hand held straight: :math:`L_2` becomes :math:`L_2` + ``extension``). Writes the channels of ``root``
@@ -145,13 +145,14 @@ def place_limb(pose: HeldPosture, root: str, middle: str, end: str, root_pos, ta
     mid = s + l1 * (cos_a[:, None] * a + np.sqrt(1 - cos_a**2)[:, None] * q)
     base = pose.base
     r_parent = pose.world_rotations[base.joints[jr].parent] if parent_world is None else np.asarray(parent_world)
-    r_root0 = r_parent @ pose.local[jr]
-    bone0 = np.repeat(unit(r_root0 @ base.joints[jm].offset)[None], n, 0)
-    r_root = np.einsum("nab,bc->nac", rotation_between(bone0, unit(mid - s)), r_root0)
+    r_parent = np.broadcast_to(r_parent, (n, 3, 3))
+    r_root0 = np.einsum("nab,bc->nac", r_parent, pose.local[jr])
+    bone0 = unit(np.einsum("nab,b->na", r_root0, base.joints[jm].offset))
+    r_root = np.einsum("nab,nbc->nac", rotation_between(bone0, unit(mid - s)), r_root0)
     r_mid0 = np.einsum("nab,bc->nac", r_root, pose.local[jm])
     bone1 = unit(np.einsum("nab,b->na", r_mid0, base.joints[je].offset))
     r_mid = np.einsum("nab,nbc->nac", rotation_between(bone1, unit(target - mid)), r_mid0)
-    pose.set_rotation(jr, np.einsum("ba,nbc->nac", r_parent, r_root))
+    pose.set_rotation(jr, np.einsum("nba,nbc->nac", r_parent, r_root))
     pose.set_rotation(jm, np.einsum("nba,nbc->nac", r_root, r_mid))
     if end_world is not None:
         pose.set_rotation(je, np.einsum("nba,bc->nac", r_mid, np.asarray(end_world)))

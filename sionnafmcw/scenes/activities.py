@@ -26,7 +26,8 @@ builder             motion source
 ``jump_in_place``   keyframed: countermovement jumps in place, ballistic flight, the legs by inverse
                     kinematics, on subject 13's standing posture (:mod:`sionnafmcw.mocap.jumps`)
 ``boxing``          keyframed: straight punches of both fists in turn, minimum-jerk fist paths at a measured
-                    peak fist speed, the arms by inverse kinematics, on subject 13's standing posture
+                    peak fist speed, the arms by inverse kinematics, the pelvis and thorax turning toward
+                    each punch, a weight shift and the stance bounce, on subject 13's standing posture
                     (:mod:`sionnafmcw.mocap.punches`; no boxing clip is shipped)
 ``mocap_clip``      any shipped CMU clip (``clip``)
 ``stand_still``     posture: CMU ``90_18`` at 0.2 s (standing); motion: parametric postural sway and the
@@ -242,6 +243,14 @@ _BOXING = {
     "punch_rate": Parameter(2.0, float, "1/s", "punches per second, the two fists in turn", low=0.5, high=4.0),
     "retraction_ratio": Parameter(1.5, float, "", "time to pull a fist back, in units of its extension time",
                                   low=1.0, high=3.0),
+    "trunk_rotation": Parameter(0.6, float, "rad", "thorax axial rotation of a rear-hand straight toward the punch "
+                                "(a jab turns 0.35 of it, the pelvis 0.6 of the thorax; tens of degrees measured: "
+                                "sionnafmcw.mocap.punches)", low=0.0, high=1.0),
+    "weight_shift": Parameter(0.05, float, "m", "forward shift of the pelvis in a rear-hand straight (assumed)",
+                              low=0.0, high=0.15),
+    "bounce": Parameter(0.03, float, "m", "peak-to-peak vertical bounce of the pelvis in the stance (assumed)",
+                        low=0.0, high=0.08),
+    "bounce_rate": Parameter(2.5, float, "Hz", "rate of the stance bounce (assumed)", low=0.0, high=5.0),
     "seed": Parameter(0, int, "", "seed of the punches' timing (each start jittered by +-20 % of the period)",
                       low=0, high=2**31 - 1),
 }
@@ -264,7 +273,9 @@ def boxing_person(p: dict):
     duration = p["time_offset"] + (n - 1) * p["playback_rate"] / p["fps"] + 0.5
     hand = anatomy.WINTER["hand"] * p["person_height"]          # the segment body's hand, beyond the wrist
     clip, punches = boxing_clip(base, t, unit, duration, fist_speed=p["fist_speed"], punch_rate=p["punch_rate"],
-                                retraction_ratio=p["retraction_ratio"], seed=p["seed"], hand_length=hand)
+                                retraction_ratio=p["retraction_ratio"], seed=p["seed"], hand_length=hand,
+                                trunk_rotation=p["trunk_rotation"], weight_shift=p["weight_shift"], bounce=p["bounce"],
+                                bounce_rate=p["bounce_rate"])
     person = mocap_person(clip, {**p, "num_frames": n}, unit=unit, keyframed=True)
     return person, punches
 
@@ -331,7 +342,7 @@ def boxing(out, **p):
     target[2] = p["radar_target_height"]
     box, opts, pieces = _room_box([(person, "")], radar, p)
     extra = {"activity": {"name": "boxing", "motion_source": "keyframed straight punches (minimum-jerk fist paths, "
-                          "inverse kinematics of the arms) on the standing posture of CMU clip "
+                          "inverse kinematics of the arms and legs, trunk rotation, weight shift and stance bounce) on the standing posture of CMU clip "
                           f"{BOXING_POSTURE[0]} at {BOXING_POSTURE[1]} s", "fist_speed_m_s": p["fist_speed"],
                           "punches": punches.to_dict(), "playback_rate": p["playback_rate"],
                           "mirror": bool(p["mirror"]), "stature_m": person.body.height,
