@@ -345,6 +345,8 @@ def main(argv=None) -> int:
     import argparse
     import sys
 
+    from ..interrupts import Interrupted
+
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--real", type=Path, default=Path("../shared/realdata/radhar/train"),
                    help="real RadHAR recordings (the .npz folder or a clone's Data/Train)")
@@ -388,6 +390,9 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as e:
         print(f"sim_to_real_radhar: {e}", file=sys.stderr)
         return 2
+    except Interrupted as e:     # Ctrl-C / kill during the generation: one line, the set resumes
+        print(f"sim_to_real_radhar: {e}", file=sys.stderr)
+        return e.exit_status
     t_generate = time.perf_counter() - t0
     window, stride = size["window"], size["stride"]
     try:
