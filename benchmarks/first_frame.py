@@ -224,7 +224,8 @@ def print_runs(name: str, runs: list[dict]) -> None:
               f"{', '.join(f'{s:.2f}' for s in r['steady_engine_seconds'])}); import {r['import_wall']:.1f} s; "
               f"kernels first frame {r['kernels_launched_first']} launched, {r['kernels_compiled_first']} compiled; "
               f"peak RSS {r['peak_rss_mib']:.0f} MiB")
-        print("   engine figures (first frame): " + ", ".join(f"{k} {v:.2f}" for k, v in r["first_stage_figures"].items())
+        figures = r["first_stage_figures"].items()
+        print("   engine figures (first frame): " + ", ".join(f"{k} {v:.2f}" for k, v in figures)
               + "; " + ", ".join(f"{k} {v}" for k, v in r["counts"].items()))
         for k in stages:
             if k in r["first"]:

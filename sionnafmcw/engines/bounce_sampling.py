@@ -414,6 +414,6 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
                         origin_motion)
 
 
-__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "error_share", "chain_ids", "follow", "grid_neighbours",
-           "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces", "surface_codes",
+__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "chain_ids", "error_share", "follow",
+           "grid_neighbours", "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces", "surface_codes",
            "under_resolved"]

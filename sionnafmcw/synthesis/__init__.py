@@ -204,7 +204,8 @@ STATIC_CHUNK = 131_072
 def static_block_cube(echoes, radar, max_error: float | None, weighted: bool = False, chunk: int | None = None):
     r"""Noise-free cube of the static block of ``echoes`` (contributions ``[..., :static_count]``, before
     the IF chain) and its delay-weighted cube when ``weighted`` (else None), summed in chunks of at most
-    ``chunk`` contributions (default :data:`STATIC_CHUNK`): each chunk through the IF chain and :func:`beat_nufft`, the cubes added.
+    ``chunk`` contributions (default :data:`STATIC_CHUNK`): each chunk through the IF chain and
+    :func:`beat_nufft`, the cubes added.
 
     The beat sum is linear in the contributions and the IF chain's gain of a contribution depends on
     that contribution alone, so the chunks' cubes add up to the whole's. Error: with the budget
