@@ -415,5 +415,5 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
 
 
 __all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "chain_ids", "error_share", "follow",
-           "grid_neighbours", "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces", "surface_codes",
-           "under_resolved"]
+           "grid_neighbours", "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces",
+           "surface_codes", "under_resolved"]
