@@ -67,8 +67,25 @@ from pathlib import Path
 import numpy as np
 
 
-def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None):
+#: RadHAR's own IWR1443 ``.cfg`` (the radar of ``--scenario radhar`` and ``people``).
+RADHAR_CFG = "/work/shared/realdata/radhar/1443es1_short_range_3d.cfg"
+
+
+def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None, people=3, cfg=RADHAR_CFG):
+    """The data-set spec of ``scenario``: ``moving_plate`` and ``straight_walk`` with ``walk-77ghz`` at
+    ``chirps`` chirps and ``samples_per_src`` ``samples``; ``radhar`` (one person in a furnished room,
+    every range of :func:`~sionnafmcw.dataset.randomisation.radhar_spec` drawn per item) and ``people``
+    (``people`` people in a room) with the radar of the TI ``.cfg`` ``cfg`` and the engine's defaults."""
+    if scenario == "radhar":
+        from sionnafmcw.dataset.randomisation import radhar_spec
+
+        return radhar_spec(name, count=count, seed=seed, radar=cfg, engine_options=engine_options or None,
+                           num_frames=frames)
     params = {"num_frames": frames}
+    if scenario == "people":
+        return {"name": name, "scenario": "people", "count": count, "seed": seed, "radar": {"file": cfg},
+                "engine_options": dict(engine_options or {}),
+                "parameters": {"num_frames": frames, "fps": 30.0, "num_people": people, "room": True}}
     if scenario == "moving_plate":
         params.update(speed={"uniform": [-3.0, 3.0]}, start_range={"uniform": [2.0, 6.0]})
     return {"name": name, "scenario": scenario, "count": count, "seed": seed,
@@ -92,7 +109,7 @@ def run(workers: int, args, root: Path) -> dict:
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         t_cluster = time.perf_counter() - t0
         warm = make_spec(f"warm{workers}", args.scenario, workers, args.frames, args.chirps, 100 + workers, args.samples,
-                         args.engine_options)
+                         args.engine_options, args.people, args.cfg)
         generate(warm, root / f"warm{workers}", scheduler=client, progress=False, item_threads=threads)
         t_warm = time.perf_counter() - t0
         # scheduler overhead: a burst of no-op tasks
@@ -101,7 +118,7 @@ def run(workers: int, args, root: Path) -> dict:
         client.gather(client.map(lambda i: i, range(n_noop), pure=False))
         t_sched = (time.perf_counter() - ts) / n_noop
         spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples,
-                         args.engine_options)
+                         args.engine_options, args.people, args.cfg)
         ts = time.perf_counter()
         index = generate(spec, root / f"bench{workers}", scheduler=client, progress=False, item_threads=threads)
         elapsed = time.perf_counter() - ts
@@ -119,7 +136,11 @@ def main(argv=None):
     parser.add_argument("--frames", type=int, default=4)
     parser.add_argument("--chirps", type=int, default=64, help="chirps per Tx of walk-77ghz (128 samples)")
     parser.add_argument("--samples", type=int, default=20_000, help="PathEngine samples_per_src")
-    parser.add_argument("--scenario", default="moving_plate", choices=["moving_plate", "straight_walk"])
+    parser.add_argument("--scenario", default="moving_plate", choices=["moving_plate", "straight_walk", "radhar", "people"],
+                        help="radhar: one person in a furnished room, people: --people in a room (both with --cfg's "
+                             "radar and the engine's defaults)")
+    parser.add_argument("--people", type=int, default=3, help="people of --scenario people")
+    parser.add_argument("--cfg", default=RADHAR_CFG, help="TI .cfg of --scenario radhar and people")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--keep", help="folder to keep the data sets in (default: a temporary one)")
     parser.add_argument("--engine-options", type=json.loads, default={},
