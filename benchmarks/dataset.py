@@ -148,8 +148,11 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     root = Path(args.keep) if args.keep else Path(tempfile.mkdtemp(prefix="sionnafmcw-bench-"))
-    print(f"{args.items} items x {args.frames} frames of {args.scenario}, walk-77ghz with {args.chirps} chirps, "
-          f"samples_per_src={args.samples}, engine options {args.engine_options}; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
+    radar = (f"radar {args.cfg}" + (f", {args.people} people" if args.scenario == "people" else "")
+             if args.scenario in ("radhar", "people") else
+             f"walk-77ghz with {args.chirps} chirps, samples_per_src={args.samples}")
+    print(f"{args.items} items x {args.frames} frames of {args.scenario}, {radar}, engine options "
+          f"{args.engine_options}; {os.cpu_count()} cores, load average {os.getloadavg()[0]:.2f}")
     rows = []
     try:
         for w in args.workers:
