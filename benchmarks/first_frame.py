@@ -35,6 +35,52 @@ Dr.Jit kernels: launched and compiled (found in neither cache) in the first fram
 
     python benchmarks/first_frame.py --tree-a /tmp/ff/treeA [--scenes radhar circle_walk] [--frames 2]
         [--repeats 1] [--cold] [--out DIR] [--json PATH]
+
+Measured
+--------
+2-core AMD EPYC shared with other sessions and a data-set generation (load average 6-9: wall
+seconds are stretched 1-4x and move between runs; the thread CPU seconds are the figures to
+compare). A: main at 96945cb (``git archive 96945cb | tar -x -C /tmp/ff/treeA``), B: this tree.
+Items of 2 frames; ``radhar`` 444k static PO samples + 7.9k static paths (452k contributions after
+the IF chain's input), the circle walk 740k + 7.9k (747k)::
+
+    python benchmarks/first_frame.py --tree-a /tmp/ff/treeA --frames 2 --out /tmp/ff/out --cold
+
+First frame, thread CPU seconds per stage (A -> B with the neighbour search and chain ids, before
+the chunked static synthesis)::
+
+    stage                       radhar A   radhar B   walk A   walk B
+    static block (StaticPO.build) 4.83       3.95      7.60     6.34
+      of it the bounce rule        4.04       3.18      6.34     4.96
+      first-bounce render          0.26       0.16      0.20     0.21
+      PO integral / merge          0.27/0.20  0.28/0.20 0.47/0.47 0.47/0.48
+    Sionna trace of the static scene (engine's static figure minus the above, wall): ~0.6-0.9 s
+    static synthesis (1 NUFFT)     1.78       1.73      2.91     2.49
+    IF chain (filter, both parts)  1.29       1.39      -        -     (0.8 s of it: scipy.signal's import)
+    load (scene, surfaces, Mitsuba) 0.60      0.63      0.53     0.52
+    the frame's own PO + trace    ~0.8       ~0.8      ~0.6     ~0.6
+    store creation / first write  0.01/0.00  0.01/0.00 0.01/0.00 0.01/0.00
+    item (2 frames) process CPU   11.2       10.3      13.1     11.8   (B/A 0.92, 0.91)
+    peak RSS MiB                  1847       1662      2362     2057
+
+Dr.Jit kernels: 421 (radhar) / 438 (walk) launched in the first frame, none compiled with the
+shared on-disk cache warm; with an empty cache (``--cold``) 35 / 36 compiled, +1.7 / +1.0 CPU-s on
+the item (the PO kernel's compilation: ``static.po_integral`` 0.99 against 0.28 CPU-s).
+
+The same command after the static block's cube in chunks (``--frames 2``, no ``--cold``, the machine
+at load 9 with a data-set benchmark running beside it)::
+
+    radhar: static NUFFT 1.89 CPU-s in one call -> 4 x 0.37 = 1.48; IF chain 1.30 -> 0.81;
+            peak RSS 1843 -> 1316 MiB (B/A 0.714); item CPU B/A 0.895
+    walk:   static NUFFT 2.63 -> 6 x 0.41 = 2.46; peak RSS 2358 -> 1621 MiB (B/A 0.687); item CPU B/A 0.967
+
+What is left of a first frame (B, radhar, ~8 CPU-s against ~1-1.5 a steady frame) and what would
+remove it: the bounce rule on the static block (3.2 CPU-s: per round the k-d tree neighbour search
+over all first-bounce tubes, 1.0-1.3 s in a profile, the quartered tubes' renders and the joins;
+keeping the neighbours of the tubes that were not split from one round to the next would leave
+only the new quarters to search); the static NUFFT (1.5 CPU-s for 452k contributions, the cost of
+the type-3 spreading per contribution and Taylor term); scipy.signal's import on the first IF chain
+(0.8 CPU-s, once per worker process, not per item); the scene load (0.6).
 """
 
 from __future__ import annotations
