@@ -58,7 +58,7 @@ the chunked static synthesis)::
     static synthesis (1 NUFFT)     1.78       1.73      2.91     2.49
     IF chain (filter, both parts)  1.29       1.39      -        -     (0.8 s of it: scipy.signal's import)
     load (scene, surfaces, Mitsuba) 0.60      0.63      0.53     0.52
-    the frame's own PO + trace    ~0.8       ~0.8      ~0.6     ~0.6
+    the frame's own PO + trace    ~0.7       ~0.7      ~0.6     ~0.6
     store creation / first write  0.01/0.00  0.01/0.00 0.01/0.00 0.01/0.00
     item (2 frames) process CPU   11.2       10.3      13.1     11.8   (B/A 0.92, 0.91)
     peak RSS MiB                  1847       1662      2362     2057
