@@ -50,6 +50,23 @@ about 600 and 650 items an hour on the 2 cores); 3.35 MB/item both. The walker o
 ``straight_walk`` has no flattened hands and ``walk-77ghz`` no IF chain, so little changes here;
 the data-set frame of ``benchmarks/frame_cost.py`` (a jumping person in a room, RadHAR's IWR1443)
 drops to 0.57-0.61 of its CPU.
+
+Short items of the RadHAR-like data sets (issue 31's first-frame work: the bounce rule's neighbour
+search and chain ids, the static block's cube in chunks) against main at 96945cb (A, ``git archive
+96945cb | tar -x -C /tmp/ff/treeA``, ``PYTHONPATH`` set to each tree, this script for both), A then
+B, the machine shared with a data-set generation (load average 6-9), 4-frame items, 1 worker::
+
+    PYTHONPATH=/tmp/ff/treeA python benchmarks/dataset.py --scenario radhar --items 3 --frames 4 --workers 1
+    PYTHONPATH=/tmp/ff/treeA python benchmarks/dataset.py --scenario people --people 3 --items 3 --frames 4 \
+        --workers 1
+
+    scenario            A cpu s/item  B cpu s/item  B/A    (A, B items/min, wall: load-bound)
+    radhar (1 person)   32.21         32.95         1.02   0.9, 0.8 (B beside a benchmark run)
+    people (3 people)   36.04         36.95         1.03   1.4, 1.4
+
+8-9 core-seconds a frame, 100-110 items an hour on one core. The first-frame savings
+(``benchmarks/first_frame.py``: 1-1.5 CPU-s of a 10-13 CPU-s first frame) are 3-5 % of an item,
+below what this load lets one pair resolve. 300-frame items were not run.
 """
 
 from __future__ import annotations
