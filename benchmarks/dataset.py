@@ -65,7 +65,7 @@ B, the machine shared with a data-set generation (load average 6-9), 4-frame ite
     people (3 people)   36.04         36.95         1.03   1.4, 1.4
 
 8-9 core-seconds a frame, 100-110 items an hour on one core. The first-frame savings
-(``benchmarks/first_frame.py``: 1-1.5 CPU-s of a 10-13 CPU-s first frame) are 3-5 % of an item,
+(``benchmarks/first_frame.py``: 1-1.5 CPU-s of a 2-frame item's 10-13 CPU-s) are 3-5 % of an item,
 below what this load lets one pair resolve. 300-frame items were not run.
 """
 
