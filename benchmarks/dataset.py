@@ -63,10 +63,13 @@ B, the machine shared with a data-set generation (load average 6-9), 4-frame ite
     scenario            A cpu s/item  B cpu s/item  B/A    (A, B items/min, wall: load-bound)
     radhar (1 person)   32.21         32.95         1.02   0.9, 0.8 (B beside a benchmark run)
     people (3 people)   36.04         36.95         1.03   1.4, 1.4
+    radhar, again (B first, then A, load 7 falling to 2)
+                        33.69         35.24         1.05   1.6, 1.5
 
 8-9 core-seconds a frame, 100-110 items an hour on one core. The first-frame savings
 (``benchmarks/first_frame.py``: 1-1.5 CPU-s of a 2-frame item's 10-13 CPU-s) are 3-5 % of an item,
-below what this load lets one pair resolve. 300-frame items were not run.
+and these pairs do not show them: A's two radhar runs differ by 5 %, B's by 7 %, and B's mean is
+3 % above A's (not resolved at this load). 300-frame items were not run.
 """
 
 from __future__ import annotations
