@@ -140,3 +140,36 @@ def test_an_aperture_without_outline_error_is_not_split(tmp_path):
     assert split.size == 0 and empty.size == 0
     again = reflect(engine._state.surfaces, renders[0], objects, rot, LAMBDA, group="static")
     assert again.num_samples == renders[1].num_samples
+
+
+def test_neighbour_search_and_chain_ids_are_the_plain_searches(tmp_path):
+    """On a trihedral's real three-bounce renders: the bounded neighbour search equals the unbounded
+    nearest-neighbour search on a balanced tree (the definition), and the chain ids from 1-D keys equal
+    ``np.unique`` over the stacked (parent chain, surface code) rows, bit for bit (both exact rewrites)."""
+    from scipy.spatial import cKDTree
+
+    from sionnafmcw.engines import bounce_sampling as bs
+
+    anim = load_animation(reflector_scene(tmp_path / "tri", "trihedral", 0.1, 1.0, np.deg2rad(30)))
+    engine = PathEngine(max_depth=3, diffuse=False)
+    engine.echoes(anim, ISO, 0)
+    renders = engine.last_renders
+    first = renders[0]
+    assert len(renders) == 3 and renders[2].num_samples > 100
+    u, p = first.direction, first.num_samples
+    size = np.maximum(np.linalg.norm(first.step_az, axis=1), np.linalg.norm(first.step_el, axis=1))
+    probes = np.concatenate([u - first.step_az, u + first.step_az, u - first.step_el, u + first.step_el])
+    distance, index = cKDTree(u).query(probes)
+    found = (distance <= bs.NEIGHBOUR_REACH * np.maximum(np.tile(size, 4), size[index])) \
+        & (index != np.tile(np.arange(p), 4))
+    plain = np.where(found, index, -1).reshape(4, p).T
+    neighbours = bs.grid_neighbours(first)
+    assert np.array_equal(neighbours, plain)
+    assert 0 < np.count_nonzero(neighbours < 0) < neighbours.size
+    chain = np.unique(bs.surface_codes(first), return_inverse=True)[1].reshape(-1)
+    for bounce in renders[1:]:
+        codes = bs.surface_codes(bounce)
+        rows = np.unique(np.stack([chain[bounce.parent], codes], axis=1), axis=0, return_inverse=True)[1].reshape(-1)
+        ids = bs.chain_ids(chain[bounce.parent], codes)
+        assert np.array_equal(ids, rows) and ids.max() > 0
+        chain = ids

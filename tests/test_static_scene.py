@@ -256,3 +256,21 @@ def test_shared_rows_keeps_every_bit():
         got = np.asarray(getattr(samples, name))
         assert got.dtype == value.dtype and got.tobytes() == value.tobytes(), name
     assert samples.select(np.arange(p) % 2 == 0).normal.flags.writeable
+
+
+def test_static_block_in_chunks_within_the_static_budget(crossing):
+    """The static block of a real frame (the wall's diffuse paths, the wall's and floor's PO samples)
+    summed in chunks of a third of it and whole: both meet the static block's share of the noise
+    budget (:data:`~sionnafmcw.synthesis.STATIC_BUDGET_SHARE`), so they agree within twice that; and
+    ``synthesize`` with its static cache gives the whole frame within the full budget of the uncached sum."""
+    from sionnafmcw.synthesis import STATIC_BUDGET_SHARE, UPSTREAM_SHARE, static_block_cube
+
+    echoes = PathEngine().echoes(crossing, RADAR, 0)
+    k = echoes.static_count
+    assert k > 300
+    budget = (1 - UPSTREAM_SHARE) * noise_error_budget(RADAR)
+    whole, _ = static_block_cube(echoes, RADAR, STATIC_BUDGET_SHARE * budget)
+    chunked, _ = static_block_cube(echoes, RADAR, STATIC_BUDGET_SHARE * budget, chunk=k // 3 + 1)
+    scale = np.abs(whole).max()
+    assert scale > 100 * budget, "the static block must be far above the budget for the test to mean anything"
+    assert np.abs(chunked - whole).max() <= 2 * STATIC_BUDGET_SHARE * budget + 2 ** -23 * scale

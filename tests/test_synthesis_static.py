@@ -270,3 +270,48 @@ def test_a_joined_frame_carries_doppler_rates_and_replaced_gains(radar):
                          static_count=e.static_count, static_key=e.static_key))
     assert (mapped.static_count, mapped.static_key) == (6, "room") and "a" not in vars(mapped)
     np.testing.assert_array_equal(mapped.a, 2 * joined.a)
+
+
+@pytest.mark.parametrize("noise", [False, True])
+def test_static_block_in_chunks_meets_the_static_budget(radar, calls, noise):
+    """The static block summed in chunks (120 contributions in chunks of 50: three) is the direct sum
+    within the static block's budget (with noise: the chunks' budgets add up to it, each in proportion
+    to its strength sum; without: the tight bounds of the chunks added), and the whole block's
+    cube within both bounds; the weighted (phase-noise) cube likewise."""
+    from sionnafmcw.synthesis import static_block_cube
+    from sionnafmcw.synthesis.nufft import synthesis_accuracy as accuracy_of
+
+    echoes = frame(radar, room(radar), seed=4)
+    k = echoes.static_count
+    static = part(echoes, 0, k)
+    budget = STATIC_BUDGET_SHARE * (1 - UPSTREAM_SHARE) * noise_error_budget(radar) if noise else None
+    cube, weighted = static_block_cube(echoes, radar, budget, weighted=True, chunk=50)
+    assert len(calls) == 3
+    whole, whole_weighted = static_block_cube(echoes, radar, budget, weighted=True)
+    assert len(calls) == 4
+    direct, direct_weighted = beat_direct(static, radar, weights=synthesis._delay_weights(static, radar))
+    rounding = 2 * FLOAT32_ROUNDING * np.abs(direct).max()
+    if noise:
+        assert sum(calls[:3]) == pytest.approx(budget, rel=1e-12) and max(calls[:3]) < budget
+        bound = budget
+    else:
+        assert calls == [None] * 4
+        bound = sum(accuracy_of(part(echoes, a, b), radar).error_bound for a, b in ((0, 40), (40, 80), (80, 120)))
+    whole_bound = accuracy_of(static, radar, max_error=budget).error_bound
+    assert np.abs(cube - direct).max() <= bound + rounding
+    assert np.abs(cube - whole).max() <= bound + whole_bound + rounding
+    # the weighted sum's bound (beat_nufft's ``weights``): the plain sum's scaled by the largest weight, or
+    # with the constant term alone WEIGHTED_RESIDUAL_MAX of each weighted strength
+    from sionnafmcw.synthesis.nufft import WEIGHTED_RESIDUAL_MAX
+
+    weights = np.abs(synthesis._delay_weights(static, radar))
+    strength = np.sqrt(radar.tx_power) * (np.abs(static.a) * weights).sum(axis=-1).max()
+    bound_w = weights.max() * bound + WEIGHTED_RESIDUAL_MAX * strength
+    assert np.abs(weighted - direct_weighted).max() <= bound_w + 2 * FLOAT32_ROUNDING * np.abs(direct_weighted).max()
+
+
+def test_static_block_chunk_must_be_positive(radar):
+    from sionnafmcw.synthesis import static_block_cube
+
+    with pytest.raises(ValueError, match="chunk must be >= 1"):
+        static_block_cube(room(radar), radar, None, chunk=0)

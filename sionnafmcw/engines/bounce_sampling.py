@@ -208,8 +208,16 @@ def surface_codes(bounce, plane=None) -> np.ndarray:
 
 
 def grid_neighbours(first) -> np.ndarray:
-    """``[P, 4]``: for every first-bounce tube the tube one step away along ``-step_az, +step_az, -step_el,
-    +step_el`` (index, -1 where no tube is there: the ray missed or hit another object first)."""
+    r"""``[P, 4]``: for every first-bounce tube the tube one step away along ``-step_az, +step_az, -step_el,
+    +step_el`` (index, -1 where no tube is there: the ray missed or hit another object first).
+
+    A probe :math:`\mathbf u_i \pm \mathbf s_i` belongs to its nearest tube centre :math:`j` when
+    :math:`|\mathbf u_j - \mathbf u_i \mp \mathbf s_i| \le r_{ij}`, :math:`r_{ij} = \rho\max(s_i, s_j)`
+    (:data:`NEIGHBOUR_REACH` :math:`\rho`). Every accepted distance is at most :math:`\rho\max_k s_k`, so the
+    nearest-neighbour search is bounded there (a probe whose nearest centre lies farther would be
+    refused anyway): the same neighbours as an unbounded search, without descending the k-d tree past
+    the bound. The tree is built unbalanced on the centres (median splits cost a sort per node; the
+    sliding-midpoint tree answers the same queries exactly)."""
     from scipy.spatial import cKDTree
 
     p = first.num_samples
@@ -219,10 +227,24 @@ def grid_neighbours(first) -> np.ndarray:
     u = first.direction
     size = np.maximum(np.linalg.norm(first.step_az, axis=1), np.linalg.norm(first.step_el, axis=1))
     probes = np.concatenate([u - first.step_az, u + first.step_az, u - first.step_el, u + first.step_el])
-    distance, index = cKDTree(u).query(probes)
+    bound = np.nextafter(NEIGHBOUR_REACH * float(size.max()), np.inf)
+    distance, index = cKDTree(u, balanced_tree=False, compact_nodes=False).query(probes, distance_upper_bound=bound)
+    near = index < p                                        # cKDTree answers p where nothing lies within the bound
+    index = np.where(near, index, 0)
     reach = NEIGHBOUR_REACH * np.maximum(np.tile(size, 4), size[index])
-    found = (distance <= reach) & (index != np.tile(np.arange(p), 4))
+    found = near & (distance <= reach) & (index != np.tile(np.arange(p), 4))
     return np.where(found, index, -1).reshape(4, p).T
+
+
+def chain_ids(parent_chain: np.ndarray, codes: np.ndarray) -> np.ndarray:
+    r"""``[P]``: dense ids of the pairs ``(parent_chain, codes)`` in lexicographic order (the inverse of
+    ``np.unique`` over the stacked rows, ``axis=0``), by one 1-D unique of a single int64 key: ``codes``
+    replaced by their ranks :math:`s\in[0, S)` (an order-preserving map), the key :math:`cS + s` orders the
+    pairs as the rows do; ``parent_chain`` holds dense ids below :math:`P`, so :math:`PS < 2^{63}`."""
+    ranks = np.unique(codes, return_inverse=True)[1].reshape(-1)
+    width = int(ranks.max(initial=-1)) + 1
+    key = parent_chain.astype(np.int64) * width + ranks
+    return np.unique(key, return_inverse=True)[1].reshape(-1)
 
 
 def monostatic_channels(renders, wavelength: float, origin=None) -> list:
@@ -272,8 +294,7 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float, cha
         root = root[bounce.parent]
         here = plane_samples(bounce)
         plane = plane[bounce.parent] & here
-        chain = np.unique(np.stack([chain[bounce.parent], surface_codes(bounce, here)], axis=1), axis=0,
-                          return_inverse=True)[1].reshape(-1)
+        chain = chain_ids(chain[bounce.parent], surface_codes(bounce, here))
         signature = np.full(p, -1, dtype=np.int64)
         signature[root] = chain
         own = signature[root]
@@ -393,6 +414,6 @@ def quartered(world, first, index, objects, rotation, wavelength: float, group: 
                         origin_motion)
 
 
-__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "error_share", "follow", "grid_neighbours",
-           "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces", "surface_codes",
-           "under_resolved"]
+__all__ = ["ERROR_SHARE", "MAX_SPLITS", "NEIGHBOUR_REACH", "PLANE_TURN", "chain_ids", "error_share", "follow",
+           "grid_neighbours", "monostatic_channels", "plane_chains", "plane_samples", "quartered", "resolved_bounces",
+           "surface_codes", "under_resolved"]

@@ -197,6 +197,54 @@ def _contributions(echoes, start: int, stop: int | None = None):
 STATIC_BUDGET_SHARE = 0.1
 
 
+#: Most contributions of the static block summed by one :func:`beat_nufft` call (:func:`static_block_cube`):
+#: a furnished room's 452k in 4 chunks took the first frame's peak memory to 0.71x and the static NUFFT
+#: from 1.9 to 1.5 CPU-s, the walk's 747k in 6 to 0.69x and 2.6 to 2.5 (``benchmarks/first_frame.py``).
+STATIC_CHUNK = 131_072
+
+
+def static_block_cube(echoes, radar, max_error: float | None, weighted: bool = False, chunk: int | None = None):
+    r"""Noise-free cube of the static block of ``echoes`` (contributions ``[..., :static_count]``, before
+    the IF chain) and its delay-weighted cube when ``weighted`` (else None), summed in chunks of at most
+    ``chunk`` contributions (default :data:`STATIC_CHUNK`): each chunk through the IF chain and
+    :func:`beat_nufft`, the cubes added.
+
+    The beat sum is linear in the contributions and the IF chain's gain of a contribution depends on
+    that contribution alone, so the chunks' cubes add up to the whole's. Error: with the budget
+    :math:`E` (``max_error``, per sample) chunk :math:`c` gets
+    :math:`E_c = E\,s_c/\sum_{c'} s_{c'}`, :math:`s_c = \max_{m,n}\sum_{p\in c}|a_{mnp}|` (the bounds of
+    :mod:`.accuracy` grow with these strength sums, as :func:`beat_nufft` splits its rate classes), so
+    by the triangle inequality the sum's error is at most :math:`\sum_c E_c = E`, the whole's budget.
+    Without a budget each chunk keeps the tight relative tolerances. What it buys: the type-3 plans'
+    source arrays, the strength vectors of the Taylor terms and the filtered gains are a chunk's, not
+    the whole block's (a room's 450-750k contributions): ``benchmarks/first_frame.py`` measures the
+    peak memory and CPU of both."""
+    from .. import receiver
+
+    total = echoes.static_count
+    chunk = STATIC_CHUNK if chunk is None else int(chunk)
+    if chunk < 1:
+        raise ValueError(f"static_block_cube: chunk must be >= 1 contribution, got {chunk!r}")
+    edges = np.linspace(0, total, max(1, -(-total // chunk)) + 1).round().astype(np.int64)
+    spans = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    strength = [float(np.abs(echoes.contributions(a, b).a).sum(axis=-1).max(initial=0.0)) for a, b in spans]
+    whole = sum(strength) or 1.0
+    cube = cube_w = None
+    for (a, b), s in zip(spans, strength):
+        part = receiver.filter_echoes(_contributions(echoes, a, b), radar)
+        budget = None if max_error is None else max_error * max(s / whole, 1e-12)
+        if weighted:
+            c, c_w = beat_nufft(part, radar, max_error=budget, weights=_delay_weights(part, radar))
+        else:
+            c, c_w = beat_nufft(part, radar, max_error=budget), None
+        if len(spans) == 1:
+            return c, c_w
+        cube = c.astype(np.complex128) if cube is None else cube + c
+        if weighted:
+            cube_w = c_w.astype(np.complex128) if cube_w is None else cube_w + c_w
+    return cube, cube_w
+
+
 def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: dict, weighted: bool = False):
     """Noise-free cube :math:`x_S + x_D` (and the delay-weighted cube when ``weighted``, else None) of
     ``echoes`` before the IF chain: the static block's from ``static_cache`` (or computed and stored),
@@ -212,11 +260,7 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
     if (entry is None or entry[1] != static_error or (entry[0] is not radar and entry[0] != radar)
             or (weighted and entry[3] is None)):
         static_cache.clear()  # one cube of memory
-        part = receiver.filter_echoes(_contributions(echoes, 0, echoes.static_count), radar)
-        if weighted:
-            cube, cube_w = beat_nufft(part, radar, max_error=static_error, weights=_delay_weights(part, radar))
-        else:
-            cube, cube_w = beat_nufft(part, radar, max_error=static_error), None
+        cube, cube_w = static_block_cube(echoes, radar, static_error, weighted)
         entry = static_cache[echoes.static_key] = (radar, static_error, cube, cube_w)
     static, static_w = entry[2], entry[3]
     if echoes.static_count == echoes.num_contributions:
@@ -229,5 +273,5 @@ def _static_and_dynamic(echoes, radar, max_error: float | None, static_cache: di
 
 
 __all__ = ["AdcClippingWarning", "METHODS", "NOISE_MARGIN_DB", "STATIC_BUDGET_SHARE", "UPSTREAM_SHARE",
-           "SynthesisAccuracy", "beat_direct", "beat_nufft", "noise_error_budget", "synthesis_accuracy", "synthesize",
-           "thermal_noise"]
+           "STATIC_CHUNK", "SynthesisAccuracy", "beat_direct", "beat_nufft", "noise_error_budget", "static_block_cube",
+           "synthesis_accuracy", "synthesize", "thermal_noise"]
