@@ -135,7 +135,6 @@ def install_timers(events: list) -> None:
     """Wrap every :data:`TIMED` function the tree has: each outermost call of a stage appends
     ``(stage, start, end, wall, thread_cpu, process_cpu, contributions)`` to ``events`` (times from
     ``time.perf_counter``; ``contributions``: of an echoes argument, else None)."""
-    import importlib
     import threading
 
     local = threading.local()
@@ -160,26 +159,8 @@ def install_timers(events: list) -> None:
         timed._first_frame_timer = True
         return timed
 
-    for module_name, attr, stage in TIMED:
-        try:
-            module = importlib.import_module(module_name)
-        except ImportError:
-            continue
-        owner, name = module, attr
-        if "." in attr:
-            cls, name = attr.split(".")
-            owner = getattr(module, cls, None)
-        if owner is None or not hasattr(owner, name):
-            continue
-        fn = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
-        if getattr(getattr(fn, "__func__", fn), "_first_frame_timer", False):
-            continue   # the same function reached through two modules: wrapped once
-        if isinstance(fn, classmethod):
-            setattr(owner, name, classmethod(wrap(fn.__func__, stage)))
-        elif isinstance(fn, staticmethod):
-            setattr(owner, name, staticmethod(wrap(fn.__func__, stage)))
-        else:
-            setattr(owner, name, wrap(fn, stage))
+    # the same function reached through two modules: wrapped once
+    frame_cost.wrap_stages(TIMED, wrap, skip=lambda fn: getattr(fn, "_first_frame_timer", False))
     # callers that imported the function by name before it was wrapped
     import sionnafmcw.synthesis as synthesis
     import sionnafmcw.synthesis.nufft as nufft

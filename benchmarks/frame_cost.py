@@ -170,7 +170,6 @@ TIMED = [
 def install_timers(totals: dict) -> None:
     """Wrap every :data:`TIMED` function the tree has so that its wall seconds add to ``totals[stage]``
     (outermost call only: a timed function calling another of the same stage counts once)."""
-    import importlib
     import threading
 
     depth = threading.local()
@@ -189,7 +188,15 @@ def install_timers(totals: dict) -> None:
                     totals[stage] = totals.get(stage, 0.0) + time.perf_counter() - t0
         return timed
 
-    for module_name, attr, stage in TIMED:
+    wrap_stages(TIMED, wrap)
+
+
+def wrap_stages(timed: list, wrap, skip=lambda fn: False) -> None:
+    """Replace every function ``(module, "name" or "Class.name", stage)`` of ``timed`` that the tree has
+    by ``wrap(fn, stage)`` (class and static methods kept as such; ``skip(fn)`` true: left as it is)."""
+    import importlib
+
+    for module_name, attr, stage in timed:
         try:
             module = importlib.import_module(module_name)
         except ImportError:
@@ -201,8 +208,12 @@ def install_timers(totals: dict) -> None:
         if owner is None or not hasattr(owner, name):
             continue
         fn = owner.__dict__[name] if isinstance(owner, type) else getattr(owner, name)
+        if skip(getattr(fn, "__func__", fn)):
+            continue
         if isinstance(fn, classmethod):
             setattr(owner, name, classmethod(wrap(fn.__func__, stage)))
+        elif isinstance(fn, staticmethod):
+            setattr(owner, name, staticmethod(wrap(fn.__func__, stage)))
         else:
             setattr(owner, name, wrap(fn, stage))
 
