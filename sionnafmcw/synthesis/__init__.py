@@ -226,18 +226,18 @@ def static_block_cube(echoes, radar, max_error: float | None, weighted: bool = F
     if chunk < 1:
         raise ValueError(f"static_block_cube: chunk must be >= 1 contribution, got {chunk!r}")
     edges = np.linspace(0, total, max(1, -(-total // chunk)) + 1).round().astype(np.int64)
-    spans = [(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
-    strength = [float(np.abs(echoes.contributions(a, b).a).sum(axis=-1).max(initial=0.0)) for a, b in spans]
+    chunks = [_contributions(echoes, int(a), int(b)) for a, b in zip(edges[:-1], edges[1:]) if b > a]
+    strength = [float(np.abs(c.a).sum(axis=-1).max(initial=0.0)) for c in chunks]
     whole = sum(strength) or 1.0
     cube = cube_w = None
-    for (a, b), s in zip(spans, strength):
-        part = receiver.filter_echoes(_contributions(echoes, a, b), radar)
+    for contributions, s in zip(chunks, strength):
+        part = receiver.filter_echoes(contributions, radar)
         budget = None if max_error is None else max_error * max(s / whole, 1e-12)
         if weighted:
             c, c_w = beat_nufft(part, radar, max_error=budget, weights=_delay_weights(part, radar))
         else:
             c, c_w = beat_nufft(part, radar, max_error=budget), None
-        if len(spans) == 1:
+        if len(chunks) == 1:
             return c, c_w
         cube = c.astype(np.complex128) if cube is None else cube + c
         if weighted:
