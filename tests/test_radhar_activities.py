@@ -3,7 +3,10 @@ r"""RadHAR's five activities on the mocap body (``sionnafmcw.scenes.radhar``, ``
 
 * Every class builds in the radar's frame: the person's start point (a walk's middle) at the range and
   azimuth asked, the manifest labelled with the class; a user's BVH file plays for any class; a walk
-  that would run into the radar is an error.
+  that would run into the radar is an error. A walk on a loop: its pelvis circles ``walk_radius`` (a
+  least-squares circle, to the walker's lateral sway of 3.2 cm) at ``walk_speed`` (the angle swept
+  times the radius, to 2 %), anticlockwise seen from above unless mirrored, and heads along
+  ``walk_direction`` at the middle frame (to the sway's few degrees).
 * Jumping jacks: the hands rise above the head once per jack, and a jack is two hops (feet apart, feet
   together), so the wrists' period is twice the pelvis's; the playback rate divides both.
 * Squats: two of them, each a deep squat: at the bottom the hip joint is no higher than the knee (the
@@ -71,9 +74,9 @@ def test_every_radhar_class_builds_in_the_radars_frame(tmp_path, activity):
     assert person["activity"] == activity
     assert np.allclose(manifest["radar"]["position"], [0.0, 0.0, 1.0])
     pelvis = np.asarray(person["keypoints"])[:, K("pelvis"), :2]
-    if activity == "walk":      # the walk's middle at (r, phi), crossing the line of sight
+    if activity == "walk":      # the walk's middle at (r, phi), heading toward the radar there
         assert np.allclose(pelvis[n // 2], [r * math.cos(phi), r * math.sin(phi)], atol=1e-5)
-        assert person["heading"] == pytest.approx(phi + math.pi / 2)
+        assert person["heading"] == pytest.approx(phi + math.pi)
     else:                       # the root starts over its ground point, facing the radar
         assert np.allclose(person["start"], [r * math.cos(phi), r * math.sin(phi)])
         assert np.allclose(pelvis[0], person["start"], atol=1e-5)
@@ -93,6 +96,31 @@ def test_a_user_bvh_plays_for_any_class(tmp_path):
     with pytest.raises(ValueError, match=r"the walk passes 0\.\d\d m from the radar"):
         scenes.build("radhar", tmp_path / "w", activity="walk", person_range=0.5, heading_offset=math.pi / 2,
                      num_frames=60, room=False, body_mesh_edge=0.06)
+
+
+@pytest.mark.parametrize("direction, mirror", [("toward", False), ("left", True), ("away", True), ("right", False)])
+def test_a_walk_on_a_loop_circles_its_radius_at_its_speed(direction, mirror):
+    from sionnafmcw.scenes.radhar import _WALK_HEADING, radhar_person
+
+    radius, speed, fps, n, phi = 0.8, 0.6, 30.0, 271, 0.2      # 9 s: more than a loop (8.4 s)
+    person, info = radhar_person(_params("radhar", activity="walk", walk_radius=radius, walk_speed=speed,
+                                         walk_direction=direction, mirror=mirror, num_frames=n, fps=fps,
+                                         person_range=2.5, person_azimuth=phi))
+    xy = person.keypoints()[:, K("pelvis"), :2]
+    # least-squares circle: x^2 + y^2 = 2 a x + 2 b y + c
+    A = np.column_stack([2 * xy, np.ones(n)])
+    a, b, c = np.linalg.lstsq(A, (xy ** 2).sum(1), rcond=None)[0]
+    fitted = math.sqrt(c + a * a + b * b)
+    assert fitted == pytest.approx(radius, abs=0.032)
+    angle = np.unwrap(np.arctan2(xy[:, 1] - b, xy[:, 0] - a))
+    swept = angle[-1] - angle[0]
+    assert abs(swept) * radius / ((n - 1) / fps) == pytest.approx(speed, rel=0.02)
+    assert (swept < 0) == mirror                                # clockwise when mirrored
+    tangent = np.sign(swept) * np.array([-(xy[n // 2, 1] - b), xy[n // 2, 0] - a])
+    heading = math.atan2(tangent[1], tangent[0])
+    want = phi + _WALK_HEADING[direction]
+    assert abs(math.remainder(heading - want, 2 * math.pi)) < math.radians(5)
+    assert np.allclose(xy[n // 2], [2.5 * math.cos(phi), 2.5 * math.sin(phi)], atol=1e-5)
 
 
 @pytest.mark.parametrize("rate", [1.0, 1.5])

@@ -129,6 +129,18 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o"), "--ablation", "nope"])
     assert "--ablation: unknown nope" in capsys.readouterr().err
+    for bad, said in ((["--seed", "-1"], "--seed must be"), (["--classifier-seeds", "0"], "--classifier-seeds must")):
+        with pytest.raises(SystemExit):
+            main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o"), *bad])
+        assert said in capsys.readouterr().err
+    # OUT's data-set folder holds something else: one line naming it, nothing generated
+    stray = tmp_path / "o3" / "datasets" / "full"
+    stray.mkdir(parents=True)
+    (stray / "notes.txt").write_text("mine")
+    assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o3"), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(stray) in err and "Traceback" not in err
+    assert sorted(p.name for p in stray.iterdir()) == ["notes.txt"]
     # a synthetic set shorter than a window: one line naming the folder and the shortfall, no traceback
     short = tmp_path / "short"
     (short / "jump").mkdir(parents=True)
@@ -162,7 +174,12 @@ def test_quick_experiment_end_to_end(tmp_path, capsys):
     assert (out / "confusion.png").is_file() and (out / "statistics.md").is_file()
     # --synthetic reuses the set: nothing is generated, the same training data gives the same scores
     assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "again"), "--quick",
-                 "--synthetic", str(out / "synthetic")]) == 0
+                 "--synthetic", str(out / "synthetic"), "--classifier-seeds", "3"]) == 0
     again = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
     assert not (tmp_path / "again" / "datasets").exists()
     assert again["sim_to_real"]["confusion"] == s2r["confusion"]
+    # the classifier's seeds: seed 0's figure first, the mean within the spread
+    seeds = again["sim_to_real"]["seeds"]
+    assert len(seeds["accuracy"]) == 3 and seeds["accuracy"][0] == s2r["accuracy"]
+    assert seeds["min_accuracy"] <= seeds["mean_accuracy"] <= seeds["max_accuracy"]
+    assert set(seeds["mean_recall"]) == set(FOLDERS)

@@ -28,15 +28,24 @@ RADHAR_RANGES = {
                      "points sit about 5 dB over the detection floor)"),
     "person_azimuth": ({"uniform": [-0.6, 0.6]}, "+-34 degrees: the real moving points' median azimuth lies within "
                        "-18..+32 degrees per recording"),
-    "heading_offset": ({"uniform": [-0.5, 0.5]}, "+-29 degrees from facing the sensor (a walk: from crossing its line "
-                       "of sight): the subjects faced it, turned by a comfortable stance angle"),
+    "heading_offset": ({"uniform": [-0.5, 0.5]}, "+-29 degrees from facing the sensor (a walk: from its "
+                       "direction): the subjects faced it, turned by a comfortable stance angle"),
     "person_height": ({"uniform": [1.55, 1.95]}, "adult statures, short women to tall men; the clips are scaled "
                       "to it, so limb lengths and speeds follow"),
     "build": ({"choice": ["male", "female"]}, "girths of men or women (Heinz et al. 2003)"),
     "playback_rate": ({"uniform": [0.8, 1.1]}, "-20 to +10 % in tempo: people repeat the same movement faster or "
                       "slower (an assumed spread, not a measured one); +10 % at most so that 60 frames at 30 fps "
                       "fit in the 2.29 s walk clip"),
-    "walk_source": ({"choice": ["clip", "boulic"]}, "walk: captured (CMU 08_10) or the Boulic-Thalmann walker"),
+    "walk_speed": ({"uniform": [0.4, 0.8]}, "walk: the real walks' pace, a slow walk in a small space: one loop "
+                   "(twice the time between sign changes of the moving points' median Doppler) takes 4.7-9.3 s "
+                   "(quartiles, median 7.3 s), i.e. 2 pi R / T = 0.4-1.0 m/s (median 0.6) on the loops below, and "
+                   "the moving points' median forward position changes by 0.27-0.62 m in one second (10-90 %); "
+                   "the captured walk (CMU 08_10) goes at 1.6 m/s"),
+    "walk_radius": ({"uniform": [0.6, 0.9]}, "walk: RadHAR's walkers walked small loops in front of the sensor (the "
+                    "moving points' median position circles over 1.3-1.7 m in range and 1.5-1.8 m across, 10-90 % of "
+                    "recordings); clockwise when mirrored"),
+    "walk_direction": ({"choice": ["toward", "away", "left", "right"]}, "walk: heading at the window's middle "
+                       "(turned by heading_offset): a window starts anywhere on the loop"),
     "mirror": ({"choice": [False, True]}, "either side leads (left- and right-handed, either foot first)"),
     "fist_speed": ({"uniform": [4.0, 9.0]}, "boxing: straight punches of recreational to trained boxers (6.3 m/s "
                    "jab of juniors, 7.5-9.3 m/s in combinations and maximal punches; sionnafmcw.mocap.punches)"),

@@ -200,10 +200,12 @@ def make_person(activity: str, p: dict, height: float, build: str, seed: int, po
                              "heading": float(heading), "speed": p["walk_speed"]}
         else:
             r = p["circle_radius"]
-            start = float(heading) - math.pi / 2       # walking anticlockwise: heading = start angle + pi/2
-            track = CircleTrack((float(position[0]), float(position[1])), r, start)
+            clockwise = bool(p.get("clockwise", False))
+            # heading = start angle + pi/2 anticlockwise, - pi/2 clockwise
+            start = float(heading) + (math.pi / 2 if clockwise else -math.pi / 2)
+            track = CircleTrack((float(position[0]), float(position[1])), r, start, clockwise)
             info["track"] = {"kind": "circle", "centre": [float(position[0]), float(position[1])], "radius": r,
-                             "start_angle": start, "speed": p["walk_speed"]}
+                             "start_angle": start, "clockwise": clockwise, "speed": p["walk_speed"]}
         walker = WalkingPerson(height=height, speed=p["walk_speed"], track=track, phase0=phase0,
                                mesh_edge=p["body_mesh_edge"])
         # Boulic's walker has no build: its girths are the round values of scenes.body

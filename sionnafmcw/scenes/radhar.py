@@ -11,8 +11,9 @@ RadHAR data set (Singh et al., mmNets 2019) in front of a radar:
 ``jump``           ``jump_style``: ``in_place`` keyframed countermovement jumps (``jump_in_place``),
                    ``forward`` CMU ``75_10``, one long jump (``jump``)
 ``squat``          CMU ``13_29`` frames 3800-4520, two deep squats (``squat``)
-``walk``           ``walk_source``: ``clip`` CMU ``08_10`` (walks 3.7 m, subject 8), ``boulic`` the
-                   Boulic-Thalmann walker on a straight track at ``walk_speed``
+``walk``           ``walk_source``: ``boulic`` the Boulic-Thalmann walker at ``walk_speed`` on a loop
+                   (``walk_path`` ``circle``, ``walk_radius``; clockwise when ``mirror``) or a straight
+                   track; ``clip`` CMU ``08_10`` (straight, 3.7 m in 2.29 s, subject 8)
 =================  ========================================================================================
 
 ``bvh`` (the path of any BVH file) replaces the class's motion by the file's, from its frame 1, and
@@ -26,11 +27,13 @@ tilted down by ``radar_tilt`` :math:`\beta` (boresight :math:`(\cos\beta, 0, -\s
 starts at range ``person_range`` :math:`r` (on the floor) and azimuth ``person_azimuth`` :math:`\varphi`,
 at :math:`(r\cos\varphi, r\sin\varphi)`, and faces the radar turned by ``heading_offset``
 :math:`\delta`: heading :math:`\varphi + \pi + \delta` (:math:`\delta = 0`: facing the radar). A walk
-crosses the line of sight instead: heading :math:`\varphi + \pi/2 + \delta` (:math:`\delta = 0`: to
-the radar's left, ``mirror`` or :math:`\delta = \pi` the other way), and :math:`(r, \varphi)` places
-its middle (the pelvis at the middle frame), so that a walk of a few metres at 1-2.5 m from the radar
-stays in front of it rather than running into it (a pelvis nearer than :data:`MIN_CLEARANCE` is an
-error). With
+heads along ``walk_direction`` at its middle frame: ``toward`` the radar (heading
+:math:`\varphi + \pi + \delta`), ``away`` (:math:`\varphi + \delta`), to the radar's ``left``
+(:math:`\varphi + \pi/2 + \delta`) or ``right`` (:math:`\varphi - \pi/2 + \delta`); :math:`(r,
+\varphi)` places its middle (the pelvis at the middle frame). On a loop the heading turns by
+:math:`v t / R` in time :math:`t`, so the window sees the radial speed swing as RadHAR's walkers did:
+they walked small loops in front of the sensor. A walk whose pelvis comes nearer the radar than
+:data:`MIN_CLEARANCE` is an error. With
 ``room`` the room encloses the person's motion and the radar with ``room_margin`` on every side (its
 size), walls, floor and ceiling of the surface materials, and the furniture counts
 (:mod:`.furniture`), placed clear of the person and of the line of sight. The physical ranges a data
@@ -51,6 +54,10 @@ from .registry import Parameter, register
 #: Least ground distance (m) of a walker's pelvis from the radar.
 MIN_CLEARANCE = 0.5
 
+#: A walk's direction and its heading relative to :math:`\varphi` (module docstring).
+WALK_DIRECTIONS = ("toward", "away", "left", "right")
+_WALK_HEADING = {"toward": math.pi, "away": 0.0, "left": math.pi / 2, "right": -math.pi / 2}
+
 #: The RadHAR classes, in the data set's order (its folder names: boxing, jack, jump, squats, walk).
 CLASSES = ("boxing", "jumping_jacks", "jump", "squat", "walk")
 #: The RadHAR folder name of each class.
@@ -61,9 +68,15 @@ PARAMETERS = {
     "bvh": Parameter("", str, "", "path of a BVH file whose motion replaces the class's (empty: the class's own)"),
     "jump_style": Parameter("in_place", str, "", "jump: in place (keyframed countermovement jumps) or forward "
                             "(CMU clip 75_10, one long jump)", choices=("in_place", "forward")),
-    "walk_source": Parameter("clip", str, "", "walk: CMU clip 08_10 or the Boulic-Thalmann walker",
-                             choices=("clip", "boulic")),
-    "walk_speed": Parameter(1.2, float, "m/s", "walk with walk_source=boulic: walking speed", low=0.3, high=2.0),
+    "walk_source": Parameter("boulic", str, "", "walk: the Boulic-Thalmann walker or CMU clip 08_10",
+                             choices=("boulic", "clip")),
+    "walk_speed": Parameter(0.5, float, "m/s", "walk with walk_source=boulic: walking speed", low=0.3, high=2.0),
+    "walk_path": Parameter("circle", str, "", "walk with walk_source=boulic: a loop of walk_radius or a straight "
+                           "track", choices=("circle", "straight")),
+    "walk_radius": Parameter(0.75, float, "m", "walk on a loop: its radius", low=0.3, high=10.0),
+    "walk_direction": Parameter("toward", str, "", "walk: heading at the middle frame, toward the radar, away from "
+                                "it, or across its line of sight to its left or right (heading_offset turns it)",
+                                choices=WALK_DIRECTIONS),
     "person_range": Parameter(2.0, float, "m", "ground range of the person's start point from the radar",
                               low=0.5, high=10.0),
     "person_azimuth": Parameter(0.0, float, "rad", "azimuth of the person's start point from the boresight "
@@ -106,7 +119,7 @@ def radhar_person(p: dict):
         person = jump_in_place_person(q)
         info.update(motion_source="keyframed countermovement jumps in place (sionnafmcw.mocap.jumps)")
     elif act == "walk":
-        q["heading"] = phi + math.pi / 2 + p["heading_offset"]
+        q["heading"] = phi + _WALK_HEADING[p["walk_direction"]] + p["heading_offset"]
         person, extra = _walker(p, q)
         mid = person.keypoints([person.num_frames // 2])[0, 0, :2]        # the pelvis half-way
         q["x"], q["y"] = q["x"] + r * math.cos(phi) - mid[0], q["y"] + r * math.sin(phi) - mid[1]
@@ -132,8 +145,19 @@ def _walker(p: dict, q: dict):
     if p["walk_source"] == "boulic":
         from .people import make_person
 
-        return make_person("walk", {**q, "walk_speed": p["walk_speed"]}, p["person_height"], p["build"], p["seed"],
-                           (q["x"], q["y"]), q["heading"])
+        if p["walk_path"] == "straight":
+            return make_person("walk", {**q, "walk_speed": p["walk_speed"]}, p["person_height"], p["build"],
+                               p["seed"], (q["x"], q["y"]), q["heading"])
+        # a loop whose track passes (x, y) at the middle frame heading q["heading"]
+        radius, speed, clockwise = p["walk_radius"], p["walk_speed"], bool(p["mirror"])
+        sign = -1.0 if clockwise else 1.0
+        t_mid = (p["num_frames"] // 2) / p["fps"]
+        angle_mid = q["heading"] - sign * math.pi / 2             # polar angle of the track point at t_mid
+        centre = (q["x"] - radius * math.cos(angle_mid), q["y"] - radius * math.sin(angle_mid))
+        heading0 = q["heading"] - sign * speed * t_mid / radius
+        return make_person("walk_circle", {**q, "walk_speed": speed, "circle_radius": radius,
+                                           "clockwise": clockwise}, p["person_height"], p["build"], p["seed"],
+                           centre, heading0)
     person = mocap_person("08_10", q)
     return person, {"motion_source": "CMU Graphics Lab Motion Capture Database, clip 08_10", "clip": "08_10",
                     "clip_start_s": person.start}
@@ -160,4 +184,4 @@ def radhar(out, **p):
                  activities=[p["activity"]], furniture=pieces, person_info=[info])
 
 
-__all__ = ["CLASSES", "PARAMETERS", "RADHAR_FOLDERS", "radhar", "radhar_person"]
+__all__ = ["CLASSES", "WALK_DIRECTIONS", "PARAMETERS", "RADHAR_FOLDERS", "radhar", "radhar_person"]

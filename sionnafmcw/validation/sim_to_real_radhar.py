@@ -175,6 +175,18 @@ def sim_to_real(synthetic: list, real: list, window: int, stride: int, seed: int
     return result
 
 
+def seed_spread(results: list) -> dict:
+    """The accuracies and recalls of :func:`sim_to_real` run with classifier seeds 0, 1, ... (``results`` in
+    that order): ``{"accuracy": [...], "mean_accuracy", "min_accuracy", "max_accuracy", "mean_recall": {class:
+    r}}``. A set of a few dozen windows does not pin the classifier down; the mean is the figure to compare."""
+    import numpy as np
+
+    acc = [float(r["accuracy"]) for r in results]
+    return {"accuracy": acc, "mean_accuracy": float(np.mean(acc)), "min_accuracy": min(acc),
+            "max_accuracy": max(acc),
+            "mean_recall": {c: float(np.mean([r["recall"][c] for r in results])) for c in results[0]["recall"]}}
+
+
 def real_to_real(real: list, window: int, stride: int, folds: int = 2, seed: int = 0) -> dict:
     """The ceiling: the same classifier trained on real recordings, tested on the windows of the
     sessions it did not see (:func:`session_folds`; every window tested once, scores pooled)."""
@@ -345,6 +357,7 @@ def main(argv=None) -> int:
     import argparse
     import sys
 
+    from ..dataset.index import DatasetError
     from ..interrupts import Interrupted
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -360,7 +373,15 @@ def main(argv=None) -> int:
     p.add_argument("--ablation", default="", help=f"variants to regenerate and score, comma-separated, of "
                    f"{', '.join(v for v in VARIANTS if v != 'full')} (each costs a synthetic set)")
     p.add_argument("--workers", type=int, default=1, help="local Dask workers for the generation")
+    p.add_argument("--seed", type=int, default=0, help="the synthetic set's seed (other draws of the same ranges)")
+    p.add_argument("--classifier-seeds", type=int, default=1, metavar="K",
+                   help="train the sim-to-real classifier with seeds 0..K-1 and report each and their mean "
+                        "(a small set's accuracy moves with the seed)")
     a = p.parse_args(argv)
+    if not 0 <= a.seed < 2**31:
+        p.error(f"--seed must be in 0..2**31-1, got {a.seed}")
+    if a.classifier_seeds < 1:
+        p.error(f"--classifier-seeds must be >= 1, got {a.classifier_seeds}")
     size = dict(QUICK if a.quick else DEFAULT)
     if a.items is not None:
         if a.items < 1:
@@ -387,7 +408,7 @@ def main(argv=None) -> int:
         else:
             synthetic_dir = a.synthetic
         synthetic = read_recordings(synthetic_dir)
-    except (OSError, ValueError) as e:
+    except (OSError, ValueError, DatasetError) as e:
         print(f"sim_to_real_radhar: {e}", file=sys.stderr)
         return 2
     except Interrupted as e:     # Ctrl-C / kill during the generation: one line, the set resumes
@@ -400,6 +421,9 @@ def main(argv=None) -> int:
     except ValueError as e:
         print(f"sim_to_real_radhar: {synthetic_dir}: {e}", file=sys.stderr)
         return 2
+    if a.classifier_seeds > 1:
+        s2r["seeds"] = seed_spread([s2r] + [sim_to_real(synthetic, real, window, stride, seed=k)
+                                            for k in range(1, a.classifier_seeds)])
     metrics = {"sim_to_real": s2r,
                "real_to_real": real_to_real(real, window, stride),
                "statistics": statistics(synthetic, real),
@@ -430,7 +454,7 @@ def _generate(a, variant: str, cfg: Path, size: dict) -> Path:
     change = VARIANTS[variant][1]
     options = {**(size["engine_options"] or {}), **change.get("engine_options", {})}
     root = a.out
-    spec = variant_spec(variant, cfg, size["items"], size["frames"])
+    spec = variant_spec(variant, cfg, size["items"], size["frames"], seed=a.seed)
     if options:
         spec["engine_options"] = options
     from ..dataset import generate
