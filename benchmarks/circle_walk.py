@@ -362,6 +362,36 @@ def json_dict(text: str, flag: str) -> dict:
     return value
 
 
+def add_tree_and_worker_arguments(p, help_a: str = "run A on the sionnafmcw of this checkout") -> None:
+    """``--tree-a``/``--tree-b`` (the checkout each method's subprocess imports ``sionnafmcw`` from) and the hidden
+    ``--worker``/``--result`` of the subprocess itself (:func:`launch`)."""
+    p.add_argument("--tree-a", default=None, help=help_a)
+    p.add_argument("--tree-b", default=None, help="as --tree-a, for B")
+    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
+    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+
+
+def ran_as_worker(args, worker) -> bool:
+    """In a subprocess of :func:`launch` (``--worker``): run ``worker`` on its spec, write its result, True."""
+    if args.worker is None:
+        return False
+    Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+    return True
+
+
+def tree_environments(p, args) -> dict:
+    """``{method: {"PYTHONPATH": tree}}`` of ``--tree-a``/``--tree-b``; a parser error for a folder without the
+    package."""
+    trees = {}
+    for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
+        if tree is not None:
+            if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
+                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there "
+                        "(expected a checkout of this repository)")
+            trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
+    return trees
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--frames", type=int, default=100, help="frames per run (default 100: the whole lap)")
@@ -375,20 +405,15 @@ def main(argv=None) -> int:
                    help=f"engine options of A, JSON (default {json.dumps(METHODS['A'])})")
     p.add_argument("--method-b", type=lambda s: json_dict(s, "--method-b"), default=METHODS["B"],
                    help=f"engine options of B, JSON (default {json.dumps(METHODS['B'])}: the engine's defaults)")
-    p.add_argument("--tree-a", default=None,
-                   help="run A on the sionnafmcw of this checkout (e.g. a git worktree of the previous commit: "
-                        "before/after a code change, same options); default: this checkout")
-    p.add_argument("--tree-b", default=None, help="as --tree-a, for B")
     p.add_argument("--cold", action="store_true", help="also first-frame time with a cold vs warm kernel cache")
     p.add_argument("--cold-frames", type=int, default=3)
     p.add_argument("--keep-stores", action="store_true", help="keep the run stores under --out")
     p.add_argument("--json", default=None, help="write every figure to this JSON file")
-    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+    add_tree_and_worker_arguments(p, "run A on the sionnafmcw of this checkout (e.g. a git worktree of the previous "
+                                     "commit: before/after a code change, same options); default: this checkout")
     args = p.parse_args(argv)
 
-    if args.worker is not None:
-        Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+    if ran_as_worker(args, worker):
         return 0
     if args.frames < 2:
         p.error("--frames must be >= 2 (the steady state is frames >= 1)")
@@ -412,13 +437,7 @@ def main(argv=None) -> int:
         scene = build_scene("circle_walk", out / "scene")
     scene_seconds = time.perf_counter() - t0
     methods = {"A": args.method_a, "B": args.method_b}
-    trees = {}
-    for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
-        if tree is not None:
-            if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
-                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there "
-                        "(expected a checkout of this repository)")
-            trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
+    trees = tree_environments(p, args)
     print(f"scene {scene} ({scene_seconds:.1f} s), {args.frames} frames, seeds {args.seeds}, "
           f"A = {json.dumps(methods['A'])} {args.tree_a or ''}, B = {json.dumps(methods['B'])} {args.tree_b or ''}",
           file=sys.stderr)

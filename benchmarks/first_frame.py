@@ -278,28 +278,19 @@ def main(argv=None) -> int:
     p.add_argument("--repeats", type=int, default=1, help="A/B pairs, alternated")
     p.add_argument("--out", default="out/bench_first_frame")
     p.add_argument("--cfg", default=str(frame_cost.RADHAR_CFG), help="TI .cfg of the radhar item's radar")
-    p.add_argument("--tree-a", default=None, help="run A on the sionnafmcw of this checkout")
-    p.add_argument("--tree-b", default=None, help="as --tree-a, for B (default: this tree)")
     p.add_argument("--only", choices=("A", "B"), default=None)
     p.add_argument("--cold", action="store_true", help="also a B run with an empty Dr.Jit kernel cache")
     p.add_argument("--json", default=None)
-    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+    circle_walk.add_tree_and_worker_arguments(p)
     args = p.parse_args(argv)
-    if args.worker is not None:
-        Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+    if circle_walk.ran_as_worker(args, worker):
         return 0
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
     cfg = Path(args.cfg)
     if not cfg.is_file():
         p.error(f"--cfg {cfg}: no such file")
-    trees = {}
-    for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
-        if tree is not None:
-            if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
-                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there")
-            trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
+    trees = circle_walk.tree_environments(p, args)
     results = {}
     for name in args.scenes:
         scene, radar = scene_and_radar(name, out, args.frames, cfg)

@@ -386,18 +386,14 @@ def main(argv=None) -> int:
     p.add_argument("--cfg", default=str(RADHAR_CFG), help="TI .cfg of the radar (processing lines left out)")
     p.add_argument("--method-a", type=lambda s: circle_walk.json_dict(s, "--method-a"), default={})
     p.add_argument("--method-b", type=lambda s: circle_walk.json_dict(s, "--method-b"), default={})
-    p.add_argument("--tree-a", default=None, help="run A on the sionnafmcw of this checkout")
-    p.add_argument("--tree-b", default=None, help="as --tree-a, for B")
     p.add_argument("--only", choices=("A", "B"), default=None, help="run one method only (profiling)")
     p.add_argument("--no-noise", action="store_true", help="simulate without receiver noise")
     p.add_argument("--sequential", type=int, default=0, metavar="N",
                    help="instead: frames 0..N, engine and synthesis one after the other, CPU seconds of each")
     p.add_argument("--json", default=None)
-    p.add_argument("--worker", default=None, help=argparse.SUPPRESS)
-    p.add_argument("--result", default=None, help=argparse.SUPPRESS)
+    circle_walk.add_tree_and_worker_arguments(p)
     args = p.parse_args(argv)
-    if args.worker is not None:
-        Path(args.result).write_text(json.dumps(worker(json.loads(args.worker))))
+    if circle_walk.ran_as_worker(args, worker):
         return 0
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
@@ -414,12 +410,7 @@ def main(argv=None) -> int:
     if not cfg.is_file():
         p.error(f"--cfg {cfg}: no such file")
     radar = radar_copy(cfg, out / "radar_rf.cfg")
-    trees = {}
-    for method, tree in (("A", args.tree_a), ("B", args.tree_b)):
-        if tree is not None:
-            if not (Path(tree) / "sionnafmcw" / "__init__.py").is_file():
-                p.error(f"--tree-{method.lower()} {tree}: no sionnafmcw package there")
-            trees[method] = {"PYTHONPATH": str(Path(tree).resolve())}
+    trees = circle_walk.tree_environments(p, args)
     methods = {"A": args.method_a, "B": args.method_b}
     if args.sequential:
         for method in ("A", "B") if args.only is None else (args.only,):
