@@ -38,20 +38,39 @@ sys.path.insert(0, str(HERE.parent / "tests"))
 
 
 def db(x) -> float:
-    return float(20 * np.log10(np.abs(x)))
+    with np.errstate(divide="ignore"):
+        return float(20 * np.log10(np.abs(x)))
 
 
-def bounce_channels(renders, wavelength: float) -> tuple[complex, complex, int, float]:
-    """``(first bounce, all bounces, first-bounce samples, mean Gamma)``: the channel of an isotropic element at
-    the render origin (``monostatic_channels``) from the engine's renders."""
+def bounce_channels(renders, wavelength: float) -> tuple[list, int, complex]:
+    """``(channels, first-bounce samples, mean Gamma)``: per bounce (1, 2, ...) the channel of an isotropic
+    element at the render origin (``monostatic_channels``) from the engine's renders, the first bounce's
+    samples and its samples' mean reflection coefficient."""
     from sionnafmcw.engines.bounce_sampling import monostatic_channels
 
     first = [r for r in renders if r.depth == 1]
     origin = first[0].source[:1]
-    h1 = sum(complex(np.sum(monostatic_channels([r], wavelength, origin)[0])) for r in first)
-    total = sum(complex(np.sum(monostatic_channels([r], wavelength, origin)[0])) for r in renders)
+    depth = max(r.depth for r in renders)
+    h = [sum(complex(np.sum(monostatic_channels([r], wavelength, origin)[0])) for r in renders if r.depth == d)
+         for d in range(1, depth + 1)]
     gamma = np.concatenate([r.samples.reflection for r in first])
-    return h1, total, sum(r.num_samples for r in first), complex(np.mean(gamma))
+    return h, sum(r.num_samples for r in first), complex(np.mean(gamma))
+
+
+def first_bounce_bound(renders, wavelength: float) -> float:
+    r"""The outline bound of :mod:`sionnafmcw.engines.bounce_sampling` applied to the first bounce: over its
+    boundary tubes (a grid neighbour on another face or none), :math:`E_1 = \frac12|\sum h_i| +
+    (\frac1{12}\sum|h_i|^2)^{1/2}`, the tubes counted whole where the outline cuts them."""
+    from sionnafmcw.engines.bounce_sampling import grid_neighbours, monostatic_channels, surface_codes
+
+    first = [r for r in renders if r.depth == 1][0]
+    h = monostatic_channels([first], wavelength)[0]
+    code = surface_codes(first)
+    nb = grid_neighbours(first)
+    other = np.where(nb >= 0, code[np.maximum(nb, 0)], -1)
+    boundary = np.any(other != code[:, None], axis=1)
+    hb = h[boundary]
+    return float(0.5 * abs(np.sum(hb)) + np.sqrt(np.sum(np.abs(hb) ** 2) / 12.0))
 
 
 def main(argv=None) -> int:
@@ -82,22 +101,29 @@ def main(argv=None) -> int:
                     anim = load_animation(reflector_scene(folder / f"{kind}_{leg}_{distance}_{aspect}", kind, leg,
                                                           distance, np.deg2rad(aspect)))
                     v, f = reflector_mesh(kind, (distance, 0.0, 1.0), leg, np.deg2rad(aspect), (0.0, 0.0, 1.0))
-                    row, echo, exact = [], None, None
+                    rows, exact = [], None
                     for n in args.across:
                         engine = PathEngine(po_samples_across=n, max_depth=depth, diffuse=False)
                         engine.echoes(anim, radar, 0)
-                        h1, total, samples, gamma = bounce_channels(engine.last_renders, wavelength)
+                        h, samples, gamma = bounce_channels(engine.last_renders, wavelength)
                         if exact is None:
                             origin = engine.last_renders[0].source[0]
                             t0 = time.perf_counter()
                             exact = complex(np.sum(part_channels(v[f], origin, wavelength, gamma)))
                             seconds = time.perf_counter() - t0
                             far = complex(np.sum(part_channels(v[f], origin, wavelength, gamma, far_field=True)))
-                        row.append(f"N={n:3d} {db(h1) - db(exact):+7.2f} [{samples:6d}]")
-                        echo = total
-                    print(f"{kind:9s} {leg:4.2f} m {distance:4.1f} m {aspect:4.1f} deg  exact {db(exact):8.2f} "
-                          f"({seconds:.1f} s) ff {db(far) - db(exact):+6.2f} | " + "  ".join(row)
-                          + f" | echo {db(echo):8.2f}, b1/echo {db(exact) - db(echo):+7.2f}", flush=True)
+                        rows.append((n, h, samples, first_bounce_bound(engine.last_renders, wavelength)))
+                    print(f"{kind} {leg:.2f} m at {distance:.1f} m, {aspect:.0f} deg: exact first bounce "
+                          f"{db(exact):.2f} dB ({seconds:.1f} s), far field {db(far) - db(exact):+.2f} dB", flush=True)
+                    echo_ref, hybrid_ref = sum(rows[-1][1]), exact + sum(rows[-1][1][1:])
+                    for n, h, samples, bound in rows:
+                        later = "  ".join(f"b{d + 1} {db(x):8.2f}" for d, x in enumerate(h[1:], start=1))
+                        echo, hybrid = sum(h), exact + sum(h[1:])
+                        print(f"  N={n:3d}: b1 - exact {db(h[0]) - db(exact):+7.2f} [{samples:6d}] "
+                              f"|b1 - exact|/|echo| {db(abs(h[0] - exact) / abs(echo)):+7.2f}, E1/|echo| "
+                              f"{db(bound / abs(echo)):+7.2f}  {later}  "
+                              f"echo {db(echo):8.2f} ({db(echo) - db(echo_ref):+6.2f} vs N={rows[-1][0]})  "
+                              f"with exact b1 {db(hybrid):8.2f} ({db(hybrid) - db(hybrid_ref):+6.2f})", flush=True)
     return 0
 
 
