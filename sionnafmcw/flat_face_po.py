@@ -51,13 +51,19 @@ edges' midpoints until no edge exceeds ``max_edge``; on each small triangle :mat
     I_T(-2k\hat{\mathbf s}_c)\,e^{j2k\hat{\mathbf s}_c\cdot\mathbf c}.
 
 The outline is exact (the triangles tile the visible part); only the phase's second-order remainder
-:math:`k(|\mathbf x|^2 - (\hat{\mathbf s}_c\cdot\mathbf x)^2)/r_c \le k\ell^2/r_c` across a triangle of edges
-:math:`\le\ell` is dropped, and its mean over each triangle is put back
+:math:`q = k(|\mathbf x|^2 - (\hat{\mathbf s}_c\cdot\mathbf x)^2)/r_c \le k\ell^2/r_c` across a triangle of
+edges :math:`\le\ell` is dropped, and its mean over each triangle is put back
 (:math:`e^{-j\mu_T}`, :math:`\mu_T = k\,\operatorname{tr}[(\mathbf I - \hat{\mathbf s}_c\hat{\mathbf s}_c^T)\mathbf C_T]/r_c`,
-:math:`\mathbf C_T` the triangle's second moment about its centroid), so what is left is second order
-in it. The default ``max_edge`` :math:`= \sqrt{Q r_{min}/k}` with :data:`NEAR_FIELD_PHASE` :math:`Q`
-keeps that remainder below :math:`Q` rad; ``tests/test_flat_face_po.py`` shows the echo unchanged
-within 0.01 dB when ``max_edge`` is halved.
+:math:`\mathbf C_T` the triangle's second moment about its centroid), so that inside a triangle what is
+left is second order in :math:`q`. Along the seams between triangles the two neighbours' phases still
+differ by up to :math:`q`: a first-order error that, where the echo is a small residue of cancelling
+edge terms (a trihedral 15-45 degrees off its axis: 60-70 dB below the sum of the magnitudes), is
+what sets the triangles' size. The default ``max_edge`` :math:`= \sqrt{Q r_{min}/k}`,
+:data:`NEAR_FIELD_PHASE` :math:`Q = 10^{-3}` rad (1.4 mm at 3 m at 77 GHz), was found by halving:
+a 0.1 m trihedral at 3 m, 0-45 degrees off its axis, moves by up to 0.05 dB from 6 to 1.5 mm and by
+< 0.002 dB from 1.5 to 0.5 mm (``tests/test_flat_face_po.py`` holds the default to 0.01 dB of half
+of it); a 0.1 m plate at 2 m agrees with a converged Gauss-Legendre quadrature of the exact
+integrand to 1e-3 of :math:`|h|`.
 """
 
 from __future__ import annotations
@@ -66,7 +72,7 @@ import numpy as np
 
 from .polygon_integral import polygon_normals, polygon_phase_integral
 
-#: Largest second-order phase remainder (rad) across a near-field triangle at the default ``max_edge``.
+#: Second-order phase remainder (rad) across a near-field triangle at the default ``max_edge`` (module docstring).
 NEAR_FIELD_PHASE = 1e-3
 #: A point lies on a plane when its signed distance is below this share of the polygon's size (m/m).
 PLANE_TOLERANCE = 1e-9
