@@ -124,17 +124,17 @@ def main(argv=None) -> int:
     parser.add_argument("--across", nargs="+", type=int, default=[16, 32, 64, 128])
     args = parser.parse_args(argv)
 
-    from reflector_scenes import reflector_mesh, reflector_scene
+    from reflector_scenes import reflector_faces, reflector_scene
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
     from sionnafmcw.engines import PathEngine
-    from sionnafmcw.flat_face_po import part_channels
+    from sionnafmcw.flat_face_po import chain_channels, part_channels
 
     radar = RadarConfig.preset("walk-77ghz").replace(antenna_pattern="iso", num_chirps=16)
     wavelength = radar.wavelength
     folder = pathlib.Path(tempfile.mkdtemp(prefix="po_flat_faces_"))
-    print("first-bounce channel |h1|^2 (dB) of an isotropic element at the phase centre: exact flat-face PO, "
-          "far field - exact, engine at samples_across N - exact [samples], whole echo and b1 share")
+    print("channel of an isotropic element at the phase centre (dB): exact flat-face PO per bounce and all "
+          "bounces; the engine at samples_across N minus it")
     for kind in args.kinds:
         depth = 3 if kind == "trihedral" else 2
         for leg in args.legs:
@@ -142,30 +142,31 @@ def main(argv=None) -> int:
                 for aspect in args.aspects:
                     anim = load_animation(reflector_scene(folder / f"{kind}_{leg}_{distance}_{aspect}", kind, leg,
                                                           distance, np.deg2rad(aspect)))
-                    v, f = reflector_mesh(kind, (distance, 0.0, 1.0), leg, np.deg2rad(aspect), (0.0, 0.0, 1.0))
+                    faces = reflector_faces(kind, (distance, 0.0, 1.0), leg, np.deg2rad(aspect), (0.0, 0.0, 1.0))
                     rows, exact = [], None
                     for n in args.across:
                         engine = PathEngine(po_samples_across=n, max_depth=depth, diffuse=False)
                         engine.echoes(anim, radar, 0)
                         h, samples, gamma = bounce_channels(engine.last_renders, wavelength)
+                        h = h + [0j] * (depth - len(h))
                         if exact is None:
                             origin = engine.last_renders[0].source[0]
                             t0 = time.perf_counter()
-                            exact = complex(np.sum(part_channels(v[f], origin, wavelength, gamma)))
+                            chains = chain_channels(faces, origin, wavelength, depth, gamma)
+                            exact = [sum((x for c, x in chains.items() if len(c) == d), 0j) for d in range(1, depth + 1)]
                             seconds = time.perf_counter() - t0
-                            far = complex(np.sum(part_channels(v[f], origin, wavelength, gamma, far_field=True)))
+                            far = complex(np.sum(part_channels(faces, origin, wavelength, gamma, far_field=True)))
                         rows.append((n, h, samples, first_bounce_bound(engine.last_renders, wavelength)))
-                    print(f"{kind} {leg:.2f} m at {distance:.1f} m, {aspect:.0f} deg: exact first bounce "
-                          f"{db(exact):.2f} dB ({seconds:.1f} s), far field {db(far) - db(exact):+.2f} dB", flush=True)
-                    echo_ref, hybrid_ref = sum(rows[-1][1]), exact + sum(rows[-1][1][1:])
+                    echo = sum(exact)
+                    print(f"{kind} {leg:.2f} m at {distance:.1f} m, {aspect:.0f} deg: exact "
+                          + "  ".join(f"b{d + 1} {db(x):8.2f}" for d, x in enumerate(exact))
+                          + f"  echo {db(echo):8.2f} ({seconds:.1f} s); b1 far field - near {db(far) - db(exact[0]):+.2f}",
+                          flush=True)
                     for n, h, samples, bound in rows:
-                        later = "  ".join(f"b{d + 1} {db(x):8.2f}" for d, x in enumerate(h[1:], start=1))
-                        echo, hybrid = sum(h), exact + sum(h[1:])
-                        print(f"  N={n:3d}: b1 - exact {db(h[0]) - db(exact):+7.2f} [{samples:6d}] "
-                              f"|b1 - exact|/|echo| {db(abs(h[0] - exact) / abs(echo)):+7.2f}, E1/|echo| "
-                              f"{db(bound / abs(echo)):+7.2f}  {later}  "
-                              f"echo {db(echo):8.2f} ({db(echo) - db(echo_ref):+6.2f} vs N={rows[-1][0]})  "
-                              f"with exact b1 {db(hybrid):8.2f} ({db(hybrid) - db(hybrid_ref):+6.2f})", flush=True)
+                        per = "  ".join(f"b{d + 1} {db(x) - db(e):+7.2f}" for d, (x, e) in enumerate(zip(h, exact)))
+                        print(f"  N={n:3d} [{samples:6d}]: {per}  echo {db(sum(h)) - db(echo):+6.2f}  "
+                              f"|b1 - exact|/|echo| {db(abs(h[0] - exact[0]) / abs(echo)):+7.2f}  "
+                              f"E1/|echo| {db(bound / abs(echo)):+7.2f}", flush=True)
     return 0
 
 

@@ -108,26 +108,81 @@ def clip_half_space(polygon, normal, point) -> np.ndarray:
     return np.array(out) if len(out) >= 3 else poly[:0]
 
 
-def _minus_cone(pieces, origin, occluder):
-    """The convex ``pieces`` minus the cone from ``origin`` through the convex polygon ``occluder``."""
-    centre = occluder.mean(axis=0)
+def _cone_planes(source, polygon):
+    r"""The inward normals of the planes through ``source`` and the convex ``polygon``'s edges (None when the
+    polygon is seen edge-on from ``source``): the cone from ``source`` through it is where all
+    :math:`\mathbf m_i\cdot(\mathbf x - \mathbf s) \ge 0`."""
+    centre = polygon.mean(axis=0)
     planes = []
-    for i in range(len(occluder)):
-        m = np.cross(occluder[i] - origin, occluder[(i + 1) % len(occluder)] - origin)
+    for i in range(len(polygon)):
+        m = np.cross(polygon[i] - source, polygon[(i + 1) % len(polygon)] - source)
         if np.linalg.norm(m) == 0:
-            return pieces
-        planes.append(m if m @ (centre - origin) >= 0 else -m)
+            return None
+        planes.append(m if m @ (centre - source) >= 0 else -m)
+    return planes
+
+
+def _minus_cone(pieces, source, occluder):
+    """The convex ``pieces`` minus the cone from ``source`` through the convex polygon ``occluder``."""
+    planes = _cone_planes(source, occluder)
+    if planes is None:
+        return pieces
     out = []
     for piece in pieces:
         rest = piece
         for m in planes:
-            outside = clip_half_space(rest, -m, origin)
+            outside = clip_half_space(rest, -m, source)
             if len(outside):
                 out.append(outside)
-            rest = clip_half_space(rest, m, origin)
+            rest = clip_half_space(rest, m, source)
             if len(rest) == 0:
                 break
     return out
+
+
+def _within_cone(pieces, source, window):
+    """The convex ``pieces`` inside the cone from ``source`` through the convex polygon ``window``."""
+    planes = _cone_planes(source, window)
+    if planes is None:
+        return []
+    out = []
+    for piece in pieces:
+        for m in planes:
+            piece = clip_half_space(piece, m, source)
+            if len(piece) == 0:
+                break
+        if len(piece):
+            out.append(piece)
+    return out
+
+
+def _seen_from(target, source, occluders, scale: float) -> list:
+    """The convex pieces of the convex polygon ``target`` that ``source`` sees past the convex ``occluders``
+    (each hides the cone through its part between ``source`` and ``target``'s plane); ``[]`` edge-on."""
+    normal, area = polygon_normals(target)
+    if area <= PLANE_TOLERANCE * scale ** 2:
+        return []
+    side = normal @ (source - target[0])
+    if abs(side) <= PLANE_TOLERANCE * scale:
+        return []                                           # edge-on: no lit area
+    towards = normal * np.sign(side)
+    pieces = [target]
+    for occluder in occluders:
+        if not pieces:
+            break
+        between = clip_half_space(occluder, towards, target[0])
+        between = clip_half_space(between, -towards, source)
+        if len(between) < 3 or polygon_normals(between)[1] <= PLANE_TOLERANCE * scale ** 2:
+            continue
+        pieces = _minus_cone(pieces, source, between)
+    return [p for p in pieces if polygon_normals(p)[1] > PLANE_TOLERANCE * scale ** 2]
+
+
+def _faces(faces, name: str) -> np.ndarray:
+    faces = np.asarray(faces, float)
+    if faces.ndim != 3 or faces.shape[-1] != 3 or faces.shape[1] < 3 or not np.all(np.isfinite(faces)):
+        raise FlatFaceError(f"{name}: faces must have shape [F, V >= 3, 3] and be finite, got {faces.shape}")
+    return faces
 
 
 def visible_parts(faces, origin) -> list:
@@ -135,32 +190,63 @@ def visible_parts(faces, origin) -> list:
     that the radar at ``origin`` lights and sees (module docstring): faces seen edge-on give nothing;
     every other face hides the part of it inside the cone from ``origin`` through its own part between
     ``origin`` and the face's plane."""
-    faces = np.asarray(faces, float)
+    faces = _faces(faces, "visible_parts")
     o = np.asarray(origin, float).reshape(3)
-    if faces.ndim != 3 or faces.shape[-1] != 3 or faces.shape[1] < 3:
-        raise FlatFaceError(f"visible_parts: faces must have shape [F, V >= 3, 3], got {faces.shape}")
-    normal, area = polygon_normals(faces)
-    out = []
-    for a in range(len(faces)):
-        if area[a] == 0:
-            out.append([])
-            continue
-        side = normal[a] @ (o - faces[a, 0])
-        if abs(side) <= PLANE_TOLERANCE * np.sqrt(area[a]):
-            out.append([])                                      # edge-on: no lit area
-            continue
-        towards = normal[a] * np.sign(side)                     # the face's lit side
-        pieces = [faces[a]]
-        for b in range(len(faces)):
-            if b == a or not pieces:
-                continue
-            # the part of face b strictly between the radar and face a's plane
-            between = clip_half_space(faces[b], towards, faces[a, 0])
-            between = clip_half_space(between, -towards, o)
-            if len(between) < 3 or polygon_normals(between)[1] <= PLANE_TOLERANCE * area[a]:
-                continue
-            pieces = _minus_cone(pieces, o, between)
-        out.append([p for p in pieces if polygon_normals(p)[1] > PLANE_TOLERANCE * area[a]])
+    scale = float(np.max(np.linalg.norm(faces - faces.mean(axis=(0, 1)), axis=-1)))
+    return [_seen_from(faces[a], o, [faces[b] for b in range(len(faces)) if b != a], scale)
+            for a in range(len(faces))]
+
+
+def mirror_point(point, face) -> np.ndarray:
+    r""":math:`M(\mathbf x) = \mathbf x - 2\hat{\mathbf n}(\hat{\mathbf n}\cdot(\mathbf x - \mathbf v_0))`: the mirror
+    image of ``point`` in the plane of the polygon ``face``."""
+    normal = polygon_normals(face)[0]
+    return point - 2 * normal * (normal @ (point - face[0]))
+
+
+def chain_apertures(faces, origin, depth: int) -> list:
+    r"""The exit apertures of every chain of up to ``depth`` reflections on ``faces [F, V, 3]`` (flat convex
+    polygons, m) seen from ``origin``: a list of ``(chain, source, pieces)``, ``chain`` the tuple of face
+    indices, ``source`` the image of ``origin`` that lights the last face (``origin`` itself for one bounce),
+    ``pieces`` the convex polygons of the last face that the chain's rays reach.
+
+    Bounce 1 is :func:`visible_parts`. A chain ending on face :math:`a` with image source
+    :math:`\mathbf s` and aperture :math:`W` continues to face :math:`b \ne a`: after the reflection the
+    rays leave :math:`W` from the image :math:`\mathbf s' = M_a(\mathbf s)` into the half-space of
+    :math:`a`'s plane where :math:`\mathbf s` lies, so the aperture on :math:`b` is the part of :math:`b`
+    in that half-space which :math:`\mathbf s'` sees past the other faces (clipped to that half-space
+    too) and which lies inside the cone from :math:`\mathbf s'` through :math:`W` (its rays crossed
+    :math:`a`'s plane inside :math:`W`): the geometric optics of the engine's chains
+    (:func:`~sionnafmcw.engines.po_render.reflect`), with every outline exact."""
+    faces = _faces(faces, "chain_apertures")
+    if int(depth) < 1:
+        raise FlatFaceError(f"chain_apertures: depth must be >= 1, got {depth}")
+    o = np.asarray(origin, float).reshape(3)
+    scale = float(np.max(np.linalg.norm(faces - faces.mean(axis=(0, 1)), axis=-1)))
+    out = [((a,), o, pieces) for a, pieces in enumerate(visible_parts(faces, o)) if pieces]
+    last = out
+    for _ in range(1, int(depth)):
+        new = []
+        for chain, source, window in last:
+            a = chain[-1]
+            normal = polygon_normals(faces[a])[0]
+            front = normal * np.sign(normal @ (source - faces[a][0]))
+            image = mirror_point(source, faces[a])
+            for b in range(len(faces)):
+                if b == a:
+                    continue
+                target = clip_half_space(faces[b], front, faces[a][0])
+                if len(target) < 3:
+                    continue
+                occluders = [clip_half_space(faces[c], front, faces[a][0]) for c in range(len(faces))
+                             if c not in (a, b)]
+                seen = _seen_from(target, image, [c for c in occluders if len(c) >= 3], scale)
+                pieces = [p for w in window for p in _within_cone(seen, image, w)
+                          if polygon_normals(p)[1] > PLANE_TOLERANCE * scale ** 2]
+                if pieces:
+                    new.append((chain + (b,), image, pieces))
+        out.extend(new)
+        last = new
     return out
 
 
@@ -202,13 +288,37 @@ def _triangle_moment(tris, centre):
     return np.einsum("tvi,tvj->tij", d, d) / 12.0
 
 
+def _near_field_channel(pieces, normal, source, receiver, k: float, max_edge: float) -> complex:
+    r""":math:`\frac{1}{4\pi}\int \frac{\cos\theta_s + \cos\theta_r}{2}\,
+    \frac{e^{-jk(r_s + r_r)}}{r_s r_r}\,dA` over the convex ``pieces`` of a face (unit ``normal``) lit from
+    ``source`` and radiating to ``receiver`` (times :math:`j\Gamma` it is the channel; module docstring):
+    small triangles, each exact in the phase to first order about its centroid, the mean of the second
+    order put back."""
+    tris = subdivided(fan_triangles(pieces), max_edge)
+    if len(tris) == 0:
+        return 0j
+    c = tris.mean(axis=1)
+    d_s, d_r = c - source, c - receiver
+    r_s, r_r = np.linalg.norm(d_s, axis=1), np.linalg.norm(d_r, axis=1)
+    s_s, s_r = d_s / r_s[:, None], d_r / r_r[:, None]
+    lit = normal * -np.sign(np.mean(s_s @ normal))                # the normal turned to the incident side
+    obliquity = np.clip(-(s_s @ lit + s_r @ lit) / 2, 0.0, None)
+    moment = _triangle_moment(tris, c)
+    trace = np.einsum("tii->t", moment)
+    mu = k / 2 * ((trace - np.einsum("ti,tij,tj->t", s_s, moment, s_s)) / r_s
+                  + (trace - np.einsum("ti,tij,tj->t", s_r, moment, s_r)) / r_r)
+    integral = polygon_phase_integral(tris - c[:, None], -k * (s_s + s_r))
+    return complex(np.sum(obliquity / (r_s * r_r) * np.exp(-1j * k * (r_s + r_r) - 1j * mu) * integral)
+                   / (4 * np.pi))
+
+
 def part_channels(faces, origin, wavelength: float, reflection=-1.0, far_field: bool = False,
                   max_edge: float | None = None) -> np.ndarray:
     r"""``[F]`` complex: each face's share of the first-bounce channel :math:`h` of an isotropic element at
     ``origin`` (module docstring). ``faces [F, V, 3]`` flat convex polygons (m), ``reflection`` the
     faces' :math:`\Gamma` (scalar or ``[F]``; -1 for a perfect conductor), ``far_field`` about the faces'
     vertex mean, ``max_edge`` the near-field triangles' largest edge (m; :func:`default_max_edge` when None)."""
-    faces = np.asarray(faces, float)
+    faces = _faces(faces, "part_channels")
     o = np.asarray(origin, float).reshape(3)
     if not wavelength > 0:
         raise FlatFaceError(f"part_channels: wavelength must be > 0 m, got {wavelength}")
@@ -229,18 +339,32 @@ def part_channels(faces, origin, wavelength: float, reflection=-1.0, far_field: 
     if max_edge is None:
         max_edge = default_max_edge(faces, o, wavelength)
     for f, pieces in enumerate(parts):
-        tris = subdivided(fan_triangles(pieces), max_edge)
-        if len(tris) == 0:
-            continue
-        c = tris.mean(axis=1)
-        r = np.linalg.norm(c - o, axis=1)
-        s = (c - o) / r[:, None]
-        cos = np.abs(s @ normal[f])
-        moment = _triangle_moment(tris, c)
-        mu = k * (np.einsum("tii->t", moment) - np.einsum("ti,tij,tj->t", s, moment, s)) / r
-        integral = polygon_phase_integral(tris - c[:, None], -2 * k * s)
-        out[f] = 1j * gamma[f] / (4 * np.pi) * np.sum(cos / r ** 2 * np.exp(-2j * k * r - 1j * mu) * integral)
+        out[f] = 1j * gamma[f] * _near_field_channel(pieces, normal[f], o, o, k, max_edge)
     return out
+
+
+def chain_channels(faces, origin, wavelength: float, depth: int, reflection=-1.0,
+                   max_edge: float | None = None) -> dict:
+    r"""``{chain: h}``: every chain's share (:func:`chain_apertures`) of the channel of an isotropic element at
+    ``origin``, the PO of its last face lit by its image source (the engine's
+    :func:`~sionnafmcw.engines.po_render.chain_po_gains`),
+
+    .. math:: h = \frac{j\Gamma^d}{4\pi}\int_{W}\frac{\hat{\mathbf n}\cdot(\hat{\mathbf u}_s + \hat{\mathbf u}_r)}{2}\,
+        \frac{e^{-jk(r_s + r_r)}}{r_s r_r}\,dA,
+
+    :math:`r_s` from the image source, :math:`r_r` to ``origin``, over the exact aperture :math:`W`, in the
+    near field (module docstring); ``reflection`` :math:`\Gamma` per bounce (scalar)."""
+    faces = _faces(faces, "chain_channels")
+    o = np.asarray(origin, float).reshape(3)
+    if not wavelength > 0:
+        raise FlatFaceError(f"chain_channels: wavelength must be > 0 m, got {wavelength}")
+    k = 2 * np.pi / wavelength
+    if max_edge is None:
+        max_edge = default_max_edge(faces, o, wavelength)
+    normal = polygon_normals(faces)[0]
+    gamma = complex(reflection)
+    return {chain: 1j * gamma ** len(chain) * _near_field_channel(pieces, normal[chain[-1]], source, o, k, max_edge)
+            for chain, source, pieces in chain_apertures(faces, o, depth)}
 
 
 def monostatic_channel(faces, origin, wavelength: float, reflection=-1.0, far_field: bool = False,
@@ -249,5 +373,6 @@ def monostatic_channel(faces, origin, wavelength: float, reflection=-1.0, far_fi
     return complex(np.sum(part_channels(faces, origin, wavelength, reflection, far_field, max_edge)))
 
 
-__all__ = ["FlatFaceError", "NEAR_FIELD_PHASE", "PLANE_TOLERANCE", "clip_half_space", "default_max_edge",
-           "fan_triangles", "monostatic_channel", "part_channels", "subdivided", "visible_parts"]
+__all__ = ["FlatFaceError", "NEAR_FIELD_PHASE", "PLANE_TOLERANCE", "chain_apertures", "chain_channels",
+           "clip_half_space", "default_max_edge", "fan_triangles", "mirror_point", "monostatic_channel",
+           "part_channels", "subdivided", "visible_parts"]
