@@ -163,7 +163,8 @@ def main(argv=None) -> int:
                           + f"  echo {db(echo):8.2f} ({seconds:.1f} s); b1 far field - near {db(far) - db(exact[0]):+.2f}",
                           flush=True)
                     for n, h, samples, bound in rows:
-                        per = "  ".join(f"b{d + 1} {db(x) - db(e):+7.2f}" for d, (x, e) in enumerate(zip(h, exact)))
+                        per = "  ".join(f"b{d + 1} {db(x) - db(e):+7.2f}" if abs(x) + abs(e) else f"b{d + 1}    none"
+                                        for d, (x, e) in enumerate(zip(h, exact)))
                         print(f"  N={n:3d} [{samples:6d}]: {per}  echo {db(sum(h)) - db(echo):+6.2f}  "
                               f"|b1 - exact|/|echo| {db(abs(h[0] - exact[0]) / abs(echo)):+7.2f}  "
                               f"E1/|echo| {db(bound / abs(echo)):+7.2f}", flush=True)

@@ -1,11 +1,15 @@
-r"""The first-bounce PO echo of flat faces, exact: each face's lit, visible part integrated in closed form.
+r"""The PO echo of flat faces, exact: each chain's lit, visible aperture integrated in closed form.
 
 A corner reflector seen off its axis has no specular point on any face: each face's physical-optics
 integral is its outline's edge terms (:mod:`sionnafmcw.polygon_integral`), which a point sampling of
-the face resolves only as finely as its samples resolve the outline. This module computes that
-first-bounce echo without sampling the outline: the faces are clipped exactly to the part the radar
-lights and sees, and each part is integrated with the exact linear-phase integral. It is the reference
-the engine's first bounce is measured against (``benchmarks/po_flat_faces.py``).
+the face resolves only as finely as its samples resolve the outline. This module computes the echo of
+flat faces without sampling any outline: the faces are clipped exactly to the part the radar lights
+and sees (the first bounce) and to the exit aperture of every chain of reflections (the later bounces,
+the engine's geometric-optics chains with PO on the last face), and each part is integrated with the
+exact linear-phase integral. It is the reference the engine's echo of corner reflectors is measured
+against (``benchmarks/po_flat_faces.py``): on its axis a trihedral's triple bounce comes out at
+:math:`4\pi a^4/(3\lambda^2)` and a dihedral's double bounce at :math:`8\pi a^4/\lambda^2` in the far field
+(``tests/test_flat_face_po.py``).
 
 The lit, visible part
 ---------------------
@@ -36,8 +40,8 @@ The channel of an isotropic element at :math:`\mathbf o` (transmitting and recei
 *Far field* (:func:`monostatic_channel` with ``far_field=True``): about a reference point
 :math:`\mathbf p_0` at range :math:`R_0` along :math:`\hat{\mathbf s}_0`, :math:`r \approx R_0 +
 \hat{\mathbf s}_0\cdot(\mathbf p - \mathbf p_0)` in the phase and :math:`r = R_0` in the amplitude, so
-:math:`h = \frac{j\Gamma}{4\pi R_0^2}e^{-j2kR_0}\sum_{parts}\cos\theta\,e^{-j2k\hat{\mathbf s}_0\cdot\mathbf p_0}
-I(-2k\hat{\mathbf s}_0)` with :math:`I` the exact polygon integral. Its neglected phase,
+:math:`h = \frac{j\Gamma}{4\pi R_0^2}e^{-j2kR_0}\sum_{parts}\cos\theta\,I_{part - \mathbf p_0}(-2k\hat{\mathbf s}_0)`
+with :math:`I_{part - \mathbf p_0}` the exact integral over the part shifted by :math:`-\mathbf p_0`. Its neglected phase,
 :math:`k\rho^2/R_0` across a target of radius :math:`\rho` (1.3 rad for a 0.1 m trihedral at 3 m at
 77 GHz), is not small at the ranges a radar sees corner reflectors.
 
@@ -48,7 +52,7 @@ edges' midpoints until no edge exceeds ``max_edge``; on each small triangle :mat
 :math:`\mathbf c`:
 
 .. math:: h \approx \frac{j\Gamma}{4\pi}\sum_T \frac{\cos\theta_c}{r_c^2}e^{-j2kr_c}\,
-    I_T(-2k\hat{\mathbf s}_c)\,e^{j2k\hat{\mathbf s}_c\cdot\mathbf c}.
+    I_{T - \mathbf c}(-2k\hat{\mathbf s}_c).
 
 The outline is exact (the triangles tile the visible part); only the phase's second-order remainder
 :math:`q = k(|\mathbf x|^2 - (\hat{\mathbf s}_c\cdot\mathbf x)^2)/r_c \le k\ell^2/r_c` across a triangle of
@@ -64,6 +68,22 @@ a 0.1 m trihedral at 3 m, 0-45 degrees off its axis, moves by up to 0.05 dB from
 < 0.002 dB from 1.5 to 0.5 mm (``tests/test_flat_face_po.py`` holds the default to 0.01 dB of half
 of it); a 0.1 m plate at 2 m agrees with a converged Gauss-Legendre quadrature of the exact
 integrand to 1e-3 of :math:`|h|`.
+
+Chains of reflections
+---------------------
+From the second bounce on the engine follows rays (geometric optics) and puts the PO current on the
+last face, lit by the image source (:mod:`~sionnafmcw.engines.po_render`). The same model, with exact
+outlines (:func:`chain_apertures`): a chain ending on face :math:`a` with image source :math:`\mathbf s`
+lights the aperture :math:`W` of :math:`a`; after reflection its rays leave :math:`W` from
+:math:`\mathbf s' = M_a(\mathbf s)`, so on the next face :math:`b` they reach the part inside the cone
+from :math:`\mathbf s'` through :math:`W`, seen past the other faces, on the reflected side of
+:math:`a`'s plane. Every such part is again a union of convex polygons cut by half-spaces. Its echo
+(:func:`chain_channels`) is the near-field integral above with the two-way length
+:math:`r_s + r_r` (from the image, back to the radar), the obliquity :math:`\hat{\mathbf n}\cdot
+(\hat{\mathbf u}_s + \hat{\mathbf u}_r)/2` and :math:`\Gamma^d`; the second-order mean per triangle is
+:math:`\mu_T = \frac k2\sum_{i = s, r}\operatorname{tr}[(\mathbf I - \hat{\mathbf s}_i\hat{\mathbf s}_i^T)
+\mathbf C_T]/r_i`. As in the engine, the return from the last face to the radar is not tested for
+blocking.
 """
 
 from __future__ import annotations
