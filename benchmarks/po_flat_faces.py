@@ -1,68 +1,85 @@
-"""The engine's first bounce on corner reflectors against the exact flat-face PO integral.
+r"""Corner reflectors: the engine's echo, bounce by bounce, against the exact flat-face PO.
 
     PYTHONPATH=.:tests python benchmarks/po_flat_faces.py [--kinds trihedral dihedral] [--legs 0.1]
         [--distances 3] [--aspects 0 15 30 45] [--across 16 32 64 128]
 
 The scene is ``benchmarks/po_bounces.py``'s ``grid`` (``tests/reflector_scenes.py``: one metal reflector
 ``distance`` ahead, its aperture axis at the radar turned ``aspect`` degrees about the vertical; radar
-``walk-77ghz`` with isotropic elements; three bounces for a trihedral, two for a dihedral). Per case:
+``walk-77ghz`` with isotropic elements; three bounces for a trihedral, two for a dihedral). Every figure
+is the channel of an isotropic element at the render origin (the array's phase centre), in dB:
 
-* ``exact``: the first bounce's channel of an isotropic element at the render origin (the array's phase
-  centre), each face's lit and visible part integrated exactly (:func:`sionnafmcw.flat_face_po.part_channels`,
-  near field, the reflector's mesh triangles as faces, the engine's own reflection coefficient: the
-  mean of its bounce-1 samples'); ``ff`` the same integral in the far field, minus ``exact``;
-* per ``samples_across`` N: the engine's (``PathEngine(po_samples_across=N)``) first bounce, the same
-  channel (:func:`~sionnafmcw.engines.bounce_sampling.monostatic_channels` of its bounce-1 render), minus
-  ``exact`` (dB), and its samples;
-* ``|b1 - exact|/|echo|``: the engine's first-bounce error against its whole echo at that N, and
-  ``E1/|echo|`` the outline bound of :mod:`sionnafmcw.engines.bounce_sampling` applied to bounce 1 (its
-  boundary tubes: a grid neighbour on another face, or none), both in dB; the rule's share at N = 16
-  is ERROR_SHARE = 0.1, -20 dB;
-* ``b2``, ``b3``: the engine's later bounces (dB); ``echo``: all bounces, and its change against the
-  largest N; ``with exact b1``: the echo with the engine's first bounce replaced by the exact one.
+* ``exact``: per bounce and all bounces together, the exact flat-face PO of the reflector's faces
+  (:func:`sionnafmcw.flat_face_po.chain_channels`: each chain's exit aperture clipped exactly, integrated
+  in the near field; the engine's own reflection coefficient, the mean of its bounce-1 samples');
+  ``b1 far field - near``: the first bounce in the far field against it;
+* per ``samples_across`` N, the engine (``PathEngine(po_samples_across=N)``, its first-bounce samples in
+  brackets): per bounce ``b1 b2 b3`` and the whole ``echo`` minus the exact ones
+  (:func:`~sionnafmcw.engines.bounce_sampling.monostatic_channels` of its renders);
+* ``|b1 - exact|/|echo|``: the engine's first-bounce error against the exact echo, and ``E1/|echo|`` the
+  outline bound of :mod:`sionnafmcw.engines.bounce_sampling` applied to bounce 1 (its boundary tubes: a
+  grid neighbour on another face, or none) against the same; the rule's share at N = 16 is
+  ``ERROR_SHARE`` = 0.1, -20 dB.
 
 Measured
 --------
-2-core AMD EPYC, shared with other work; ``PYTHONPATH=.:tests python benchmarks/po_flat_faces.py``
-(0.1 m trihedral at 3 m), ``... --kinds dihedral``, ``... --legs 0.05 0.3 --distances 1 10 --aspects
-45 --across 16 128``. First bounce: engine minus exact (dB) at N = 16 / 32 / 64 / 128; b1/echo the
-exact first bounce against the engine's echo at N = 128:
+2-core AMD EPYC, shared with other work. ``PYTHONPATH=.:tests python benchmarks/po_flat_faces.py`` and
+``... --kinds dihedral`` (0.1 m at 3 m, N = 16 / 32 / 64 / 128), and the issue's grid at the defaults,
+``... --kinds trihedral dihedral --legs 0.05 0.1 0.3 --distances 1 3 10 --across 16``.
 
-===========================  ==========  =====================================  ==========  =======
-case                         exact b1    engine b1 - exact, N=16/32/64/128      b1/echo     far - exact
-===========================  ==========  =====================================  ==========  =======
-trihedral 0.1 m 3 m, 0 deg   -126.52     -28.69 / -23.97 / -26.07 / -15.07      -40.5       +1.74
-trihedral 15 deg             -161.26     +12.04 / +11.16 / -6.22 / +5.55        -73.2       +1.30
-trihedral 30 deg             -149.52     -2.10 / -6.32 / +1.17 / -3.80          -51.6       -2.17
-trihedral 45 deg             -163.16     +25.42 / +19.90 / +21.70 / +2.66       -26.8       +8.72
-dihedral 0.1 m 3 m, 0 deg    -126.50     -24.34 / -19.32 / -22.54 / -4.26       -44.8       +1.83
-dihedral 45 deg              -92.95      +0.71 / +0.42 / +0.04 / +0.19          -0.2        +1.33
-===========================  ==========  =====================================  ==========  =======
+The reference: the exact first bounce agrees with a brute-force Gauss-Legendre quadrature to 0.0002 dB
+(trihedral on its axis at 3 m, where no face hides another); on their axis at 200 m the exact triple
+bounce of a trihedral and double bounce of a dihedral are their closed forms
+(``tests/test_flat_face_po.py``). The far field is no reference at these ranges (b1 far minus near:
+up to 30 dB at 1 m, 1.3-8.7 dB for 0.1 m at 3 m). The exact echo takes 0.1-46 s (0.3 m at 1 m).
 
-The exact first bounce is reproduced by a brute-force Gauss-Legendre quadrature to 0.0002 dB (the
-trihedral on its axis, where no face hides another). Point sampling of a face seen obliquely does
-not converge: the engine's trihedral first bounce is 1.2-28.7 dB off at every N up to 128 at 0-30
-degrees and up to +25 dB at 45, the dihedral's 0.06-24 dB at 0-30 (the footprint factor integrates each tube exactly, but the tubes that the outline
-cuts count whole; the outline's error is a sum of staircase steps, each a sinc-weighted edge term
-that does not fall until the step is well under :math:`1/|\mathbf w_t| = \lambda/(4\pi\sin\theta)`, about
-0.4 mm at 77 GHz: ``samples_across`` ~ 300 for a 0.1 m target). Where it matters:
+0.1 m trihedral at 3 m, engine minus exact (dB) at N = 16 / 32 / 64 / 128:
 
-* 0-30 degrees: the engine's first-bounce error at N = 16 is 40-63 dB (trihedral) and 37-53 dB
-  (dihedral) below the echo (``|b1 - exact|/|echo|``); it moves the echo by <= 0.13 dB. The echo's
-  convergence there is the later bounces' (``bounce_sampling``: within 0.4 dB of N = 128 at N = 16).
-* 45 degrees, trihedral (no triple bounce, the echo 50 dB below the axis's): the default is not within
-  1 dB. 0.1 m at 3 m: echo +2.29 / -1.39 / -6.64 dB at N = 16 / 32 / 64 against N = 128; the engine's
-  first-bounce error is -3.7 dB of the echo at N = 16 (E1 -3.9 dB: the bound sees it), and the double
-  bounce b2 moves by 4.7 dB between N (-139.3 / -134.6 / -137.3 / -137.0 dB), so with the exact first
-  bounce the echo still moves by -2.22 / +2.25 / -0.29 dB. 0.05 m at 1 m: default +1.12 dB (with the
-  exact b1 -0.26 dB); 0.05 m at 10 m: +0.51 (+0.35); 0.3 m at 1 m: +0.56 dB against N = 128, but the
-  engine's first bounce is +11.1 dB off the exact one even at N = 128, so N = 128 is no converged
-  echo there: the echo with the exact first bounce is -112.91 dB against the engine's -108.89 (4.0 dB).
-* 45 degrees, dihedral (one face square to the radar, no double bounce): the echo is the first bounce,
-  which has a specular point; the engine is within 0.71 dB of the exact integral at N = 16.
+=======  ========================  ===========================  ===========================  ==========================
+aspect   exact b1 / b2 / b3, echo  b1                           b2                           echo
+=======  ========================  ===========================  ===========================  ==========================
+0 deg    -126.5 -121.9 -86.0 -85.9  -28.7 / -24.0 / -26.1 / -15.1  -23.3 / -13.4 / -5.4 / -1.3    -0.36 / -0.13 / -0.03 / -0.03
+15 deg   -161.3 -120.4 -88.0 -88.0  +12.0 / +11.2 / -6.2 / +5.6    -11.0 / -14.0 / -4.7 / -1.0    +0.04 / +0.02 / -0.00 / -0.02
+30 deg   -149.5 -111.8 -98.0 -97.9  -2.1 / -6.3 / +1.2 / -3.8      -1.6 / -0.3 / -0.2 / -0.1      -0.39 / +0.02 / +0.00 / -0.00
+45 deg   -163.2 -137.2 none -136.8  +25.4 / +19.9 / +21.7 / +2.7   -2.2 / +2.6 / -0.1 / +0.2      +2.67 / -1.01 / -6.26 / +0.38
+=======  ========================  ===========================  ===========================  ==========================
 
-The far field (``ff``) is no reference at these ranges: 1.7-8.7 dB off the near-field integral at 3 m
-for 0.1 m, -23 dB for 0.3 m at 1 m, 0.08 dB for 0.05 m at 10 m.
+0.1 m dihedral at 3 m: echo within 0.21 / 0.18 / 0.03 / 0.03 dB at 0-45 degrees (worst over aspects;
+at 45 degrees, one face square to the radar and no double bounce, +0.71 / +0.42 / +0.04 / +0.19).
+
+The issue's grid at the defaults (N = 16), echo minus exact, dB (trihedral; dihedral):
+
+========  =====================================  =====================================
+            trihedral 0 / 15 / 30 / 45 deg         dihedral 0 / 15 / 30 / 45 deg
+========  =====================================  =====================================
+0.05 1 m  -0.20 / -0.05 / -0.11 / +1.13          +0.18 / +0.28 / -0.07 / +1.36
+0.05 3 m  +0.31 / -0.47 / +0.36 / +0.53          +0.12 / +0.32 / +0.16 / +0.33
+0.05 10m  -0.55 / -0.87 / +0.23 / +0.55          +0.24 / +0.45 / -0.21 / +0.28
+0.1 1 m   -0.81 / -0.12 / -0.58 / -4.17          +0.17 / -0.29 / -0.32 / +1.48
+0.1 3 m   -0.36 / +0.04 / -0.39 / +2.67          +0.21 / +0.20 / +0.08 / +0.71
+0.1 10m   -0.09 / -1.04 / -0.79 / -10.37         +0.38 / +0.20 / +0.88 / +0.26
+0.3 1 m   -0.13 / -0.48 / +0.12 / +5.17          -0.42 / +0.41 / +0.36 / -1.43
+0.3 3 m   -0.37 / -0.07 / -0.53 / +6.32          (not run)
+0.3 10m   -0.75 / -0.27 / +1.04 / +3.65          (not run)
+========  =====================================  =====================================
+
+So at 0-30 degrees the defaults are within 1.04 dB of the exact echo (trihedrals) and 0.88 dB
+(dihedrals); at 45 degrees they are not: trihedrals off by +0.5 ... +6.3 dB and -4.2 / -10.4 dB,
+dihedrals (then the first bounce of one face square to the radar) by up to 1.48 dB at 1 m.
+
+Why, at 45 degrees (trihedral: no triple bounce, the echo 50 dB below the axis's): two errors of the
+same size. (i) The first bounce has no specular point; its exact value is edge terms, and the engine
+is 10-37 dB above it at N = 16 (``|b1 - exact|/|echo|`` -1.0 ... -5.7 dB: the first-bounce error alone
+is 50-90 % of the echo's amplitude). The outline bound of ``bounce_sampling`` applied to bounce 1
+sees it: ``E1/|echo|`` -3.8 ... +2.4 dB at 45 degrees against <= -22 dB at 0-30 degrees (except 0.3 m
+dihedrals at 1 m, -11.8 dB). Point sampling does not converge there: the footprint factor integrates
+each tube exactly, but the tubes that the outline cuts count whole, and the staircase's steps each
+add an edge term that does not fall until the step is well under
+:math:`1/|\mathbf w_t| = \lambda/(4\pi\sin\theta)`, about 0.4 mm at 77 GHz (``samples_across`` ~ 300
+for a 0.1 m target): the 0.1 m trihedral at 3 m, 45 degrees, is still +2.7 dB off at N = 128.
+(ii) The double bounce, now the echo itself, is off by -13.7 ... +5.4 dB at N = 16 (0.1 m at 10 m:
+49 first-bounce samples), and the rule of ``bounce_sampling`` does not split it: its bound is measured
+against the object's engine echo, which (i) corrupts. At 0-30 degrees the first bounce is 29-82 dB
+below the echo and its error moves nothing.
 """
 
 from __future__ import annotations
