@@ -198,6 +198,66 @@ def test_chain_apertures_of_a_turned_dihedral():
     assert shares == pytest.approx(sorted([t, 1.0]), abs=2 * 0.1 / 300.0)
 
 
+def _blocked(start, end, faces, skip):
+    """``[K]`` bool: the segments ``start [K, 3]`` -> ``end [K, 3]`` cross one of the triangles ``faces`` not in
+    ``skip`` strictly between their ends (Moller-Trumbore)."""
+    d = end - start
+    out = np.zeros(len(d), dtype=bool)
+    for b, tri in enumerate(faces):
+        if b in skip:
+            continue
+        e1, e2 = tri[1] - tri[0], tri[2] - tri[0]
+        pv = np.cross(d, e2)
+        det = pv @ e1
+        ok = np.abs(det) > 1e-15
+        inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
+        t0 = start - tri[0]
+        u = np.einsum("ki,ki->k", t0, pv) * inv
+        q = np.cross(t0, e1)
+        v = np.einsum("ki,ki->k", q, d) * inv
+        t = (q @ e2) * inv
+        out |= ok & (u > 0) & (v > 0) & (u + v < 1) & (t > 1e-9) & (t < 1 - 1e-9)
+    return out
+
+
+@pytest.mark.parametrize("aspect", [0.0, 30.0, 45.0])
+def test_double_bounce_apertures_against_rays(aspect):
+    """A 0.1 m trihedral 1 m away (near field: the image sources are 1-2 m off): every double-bounce
+    aperture's area against a grid of points on its last face, each traced back: through the first
+    face's plane from the image of the radar, the crossing inside the first face, the radar's ray to it
+    and the reflected ray from it unblocked (tolerance: the grid's staircase, a few cells' share)."""
+    origin = np.array([0.0, 0.0, 1.0])
+    faces = reflector_faces("trihedral", (1.0, 0.0, 1.0), 0.1, np.deg2rad(aspect), origin)
+    n = 240
+    u, v = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n, indexing="ij")
+    keep = u + v < 1
+    apertures = {c: area(p) for c, _, p in chain_apertures(faces, origin, 2) if len(c) == 2}
+    normals = polygon_normals(faces)[0]
+    checked = 0
+    for a in range(3):
+        image = origin - 2 * normals[a] * (normals[a] @ (origin - faces[a][0]))
+        for b in range(3):
+            if a == b:
+                continue
+            tri = faces[b]
+            p = tri[0] + u[keep, None] * (tri[1] - tri[0]) + v[keep, None] * (tri[2] - tri[0])
+            d = p - image
+            t = ((faces[a][0] - image) @ normals[a]) / (d @ normals[a])
+            q = image + t[:, None] * d
+            # q on face a: barycentric test in its plane
+            e1, e2 = faces[a][1] - faces[a][0], faces[a][2] - faces[a][0]
+            g = np.array([[e1 @ e1, e1 @ e2], [e1 @ e2, e2 @ e2]])
+            rhs = np.stack([(q - faces[a][0]) @ e1, (q - faces[a][0]) @ e2], axis=1)
+            bary = np.linalg.solve(g, rhs.T).T
+            on_a = (t > 0) & (t < 1) & (bary[:, 0] > 0) & (bary[:, 1] > 0) & (bary.sum(axis=1) < 1)
+            lit = on_a & ~_blocked(np.broadcast_to(origin, q.shape), q, faces, {a}) & ~_blocked(q, p, faces, {a, b})
+            share = float(lit.mean())
+            total = float(polygon_normals(tri)[1])
+            assert apertures.get((a, b), 0.0) / total == pytest.approx(share, abs=4.0 / n)
+            checked += share > 0
+    assert checked >= (2 if aspect == 45.0 else 6)
+
+
 @pytest.mark.slow
 def test_engine_against_the_exact_flat_face_echo(tmp_path):
     """The path engine's defaults on a 0.1 m trihedral at 3 m (``benchmarks/po_flat_faces.py``): at 0 and 30
