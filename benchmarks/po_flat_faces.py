@@ -75,8 +75,7 @@ is 10-37 dB above it at N = 16 (``|b1 - exact|/|echo|`` -1.0 ... -5.7 dB for 0.1
 0.3 m at 10 m: the first-bounce error alone is 50-90 % of the echo's amplitude; -14 ... -20 dB for
 the others). The outline bound of ``bounce_sampling`` applied to bounce 1 sees it: ``E1/|echo|``
 above the -20 dB share in 7 of the 9 trihedral cases at 45 degrees (-22.6 ... +2.4 dB), and below
--22 dB at 0-30 degrees in all 54 cases but the 0.3 m dihedral at 1 m, 15 and 30 degrees (-22.1,
--11.8 dB). Point sampling does not converge there: the footprint factor integrates
+-22 dB at 0-30 degrees in all 54 cases but one, the 0.3 m dihedral at 1 m, 30 degrees (-11.8 dB). Point sampling does not converge there: the footprint factor integrates
 each tube exactly, but the tubes that the outline cuts count whole, and the staircase's steps each
 add an edge term that does not fall until the step is well under
 :math:`1/|\mathbf w_t| = \lambda/(4\pi\sin\theta)`, about 0.4 mm at 77 GHz (``samples_across`` ~ 300
@@ -103,7 +102,7 @@ criterion: with the footprint factor 45 degrees at 10 m passes the -20 dB share;
 degrees at 1 and 10 m fail it although the defaults are within 0.8 dB there. (On the axis the footprint factors of the first bounce's boundary tubes average
 0.001: the engine's first bounce there is 12-30 dB below the exact one, the outline's edge terms lost,
 harmlessly: the triple bounce is 29-60 dB above it.) At 0-30 degrees the trihedrals' first-bounce
-error is 29-82 dB below the echo (it moves the echo by <= 0.3 dB), the dihedrals' 26-53 dB but for
+error is 29-82 dB below the echo (it moves the echo by <= 0.3 dB), the dihedrals' 26-55 dB but for
 the 0.3 m dihedral at 1 m, 30 degrees (-10.7 dB, a face 15 degrees off square: the echo still
 +0.36 dB).
 """
