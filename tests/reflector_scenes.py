@@ -55,6 +55,25 @@ def reflector_mesh(kind: str, corner, leg: float, aspect: float, radar=(0.0, 0.0
     raise ValueError(f"reflector_mesh: kind must be 'trihedral' or 'dihedral', got {kind!r}")
 
 
+def reflector_faces(kind: str, corner, leg: float, aspect: float, radar=(0.0, 0.0, 1.0)) -> np.ndarray:
+    """The flat faces of :func:`reflector_mesh`'s reflector as polygons ``[F, V, 3]``: a trihedral's three
+    triangles, a dihedral's two squares (the mesh's triangles, merged)."""
+    corner = np.asarray(corner, float)
+    u = (corner - np.asarray(radar, float)) / np.linalg.norm(corner - np.asarray(radar, float))
+    if kind == "trihedral":
+        rot = turn_about_z(aspect) @ _rotation_between(np.ones(3), -u)
+        e = np.eye(3) * leg
+        local = np.array([[np.zeros(3), e[1], e[2]], [np.zeros(3), e[2], e[0]], [np.zeros(3), e[0], e[1]]])
+    elif kind == "dihedral":
+        rot = turn_about_z(aspect) @ _rotation_between(np.array([1.0, 1.0, 0.0]), -u)
+        h = leg / 2
+        local = np.array([[[0, 0, -h], [0, leg, -h], [0, leg, h], [0, 0, h]],
+                          [[0, 0, -h], [leg, 0, -h], [leg, 0, h], [0, 0, h]]], float)
+    else:
+        raise ValueError(f"reflector_faces: kind must be 'trihedral' or 'dihedral', got {kind!r}")
+    return local @ rot.T + corner
+
+
 def mirrored(vertices, faces):
     """The mirror image of a mesh in the plane y = 0 (winding reversed, so normals stay outward)."""
     return np.asarray(vertices, float) * [1.0, -1.0, 1.0], np.asarray(faces)[:, ::-1]
