@@ -94,22 +94,7 @@ def shadow_fraction_by_rays(faces, face, origin, n=200):
     u, v = np.meshgrid((np.arange(n) + 0.5) / n, (np.arange(n) + 0.5) / n, indexing="ij")
     keep = u + v < 1
     p = tri[0] + u[keep, None] * (tri[1] - tri[0]) + v[keep, None] * (tri[2] - tri[0])
-    d = p - origin
-    lit = np.ones(len(p), dtype=bool)
-    for b, other in enumerate(faces):
-        if b == face:
-            continue
-        e1, e2 = other[1] - other[0], other[2] - other[0]
-        pv = np.cross(d, e2)
-        det = pv @ e1
-        ok = np.abs(det) > 1e-15
-        inv = np.where(ok, 1 / np.where(ok, det, 1), 0)
-        t0 = origin - other[0]
-        a = (pv @ t0) * inv
-        q = np.cross(t0, e1)
-        c = (q @ d.T).T * inv if False else np.einsum("i,pi->p", q, d) * inv
-        t = (q @ e2) * inv
-        lit &= ~(ok & (a > 0) & (c > 0) & (a + c < 1) & (t > 1e-9) & (t < 1 - 1e-9))
+    lit = ~_blocked(np.broadcast_to(origin, p.shape), p, faces, {face})
     return lit.mean(), 1.0 / n
 
 
