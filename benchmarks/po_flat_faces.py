@@ -26,8 +26,8 @@ is the channel of an isotropic element at the render origin (the array's phase c
 Measured
 --------
 2-core AMD EPYC, shared with other work. ``PYTHONPATH=.:tests python benchmarks/po_flat_faces.py`` and
-``... --kinds dihedral`` (0.1 m at 3 m, N = 16 / 32 / 64 / 128), and the issue's grid at the defaults,
-``... --kinds trihedral dihedral --legs 0.05 0.1 0.3 --distances 1 3 10 --across 16``.
+``... --kinds dihedral`` (0.1 m at 3 m, N = 16 / 32 / 64 / 128), and the grid of corner reflectors at
+the defaults, ``... --kinds trihedral dihedral --legs 0.05 0.1 0.3 --distances 1 3 10 --across 16``.
 
 The reference: the exact first bounce agrees with a brute-force Gauss-Legendre quadrature to 0.0002 dB
 (trihedral on its axis at 3 m, where no face hides another); on their axis at 200 m the exact triple
@@ -49,7 +49,8 @@ aspect   exact b1 / b2 / b3, echo  b1                           b2              
 0.1 m dihedral at 3 m: echo within 0.21 / 0.18 / 0.03 / 0.03 dB at 0-30 degrees (worst over aspects;
 at 45 degrees, one face square to the radar and no double bounce, +0.71 / +0.42 / +0.04 / +0.19).
 
-The issue's grid at the defaults (N = 16), echo minus exact, dB (trihedral; dihedral):
+The grid of corner reflectors (0.05-0.3 m, 1-10 m, 0-45 deg) at the defaults (N = 16), echo minus exact,
+dB (trihedral; dihedral):
 
 ========  =====================================  =====================================
             trihedral 0 / 15 / 30 / 45 deg         dihedral 0 / 15 / 30 / 45 deg
