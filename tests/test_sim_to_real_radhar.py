@@ -15,7 +15,8 @@ import pytest
 from sionnafmcw.ti.formats.radhar import Recording, read_recording, write_npz
 from sionnafmcw.validation.har_classifier import (WINDOW, WindowClassifier, frame_features, scores,
                                                   windows)
-from sionnafmcw.validation.sim_to_real_radhar import FOLDERS, main, read_recordings, session_folds, session_of
+from sionnafmcw.validation.sim_to_real_radhar import (FOLDERS, VARIANTS, main, read_recordings, session_folds,
+                                                      session_of, variant_spec)
 
 RADHAR = next((p / "shared" / "realdata" / "radhar" for p in Path(__file__).resolve().parents
                if (p / "shared" / "realdata" / "radhar").is_dir()), Path("shared/realdata/radhar"))
@@ -183,3 +184,18 @@ def test_quick_experiment_end_to_end(tmp_path, capsys):
     assert len(seeds["accuracy"]) == 3 and seeds["accuracy"][0] == s2r["accuracy"]
     assert seeds["min_accuracy"] <= seeds["mean_accuracy"] <= seeds["max_accuracy"]
     assert set(seeds["mean_recall"]) == set(FOLDERS)
+
+
+@needs_radhar
+@pytest.mark.parametrize("variant", sorted(VARIANTS))
+def test_every_ablation_variant_draws_items_that_build(tmp_path, variant):
+    """Each variant's spec gives, for every class, an item whose scene builds (a variant that switches the
+    room off must switch its furniture off too)."""
+    from sionnafmcw import scenes
+    from sionnafmcw.dataset.spec import load_spec
+
+    spec = load_spec(variant_spec(variant, RADHAR / "1443es1_short_range_3d.cfg", 5, 2, seed=1))
+    for i in range(5):
+        item = spec.item(i)
+        params = item["parameters"] if isinstance(item, dict) else item.parameters
+        scenes.build("radhar", tmp_path / f"{i}", **{**params, "body_mesh_edge": 0.06})

@@ -42,7 +42,9 @@ VARIANTS = {
                    {"engine_options": {"physical_optics": False}}),
     "no_receiver": ("receiver effects: no thermal noise, no phase noise, no noise-figure draw",
                     {"noise": False, "receiver": False}),
-    "no_room": ("room and furniture clutter: the person alone in free space", {"fixed": {"room": False}}),
+    "no_room": ("room and furniture clutter: the person alone in free space",
+                {"fixed": {"room": False, **{n: 0 for n in ("tables", "chairs", "sofas", "shelves", "cabinets",
+                                                            "doors", "monitors")}}}),
     "no_randomisation": ("domain randomisation: every item at the builder's defaults", {"randomise": False}),
 }
 
@@ -74,6 +76,7 @@ def export_radhar(data: Path, out: Path) -> Path:
     from ..ti.formats.ros_driver import DriverParams
     from ..ti.oob import run_point_clouds
 
+    Path(out).mkdir(parents=True, exist_ok=True)
     for item in sorted((Path(data) / "items").iterdir()):
         record = read_json(item / "item.json") or {}
         store = item / "run.zarr"
@@ -435,9 +438,18 @@ def main(argv=None) -> int:
     metrics["statistics"]["doppler"] = {"simulated": doppler_histograms(synthetic), "real": doppler_histograms(real)}
     metrics["ablation"]["full"] = {"off": VARIANTS["full"][0], "accuracy": metrics["sim_to_real"]["accuracy"]}
     for variant in ablation:
-        recs = read_recordings(_generate(a, variant, cfg, size))
-        s = sim_to_real(recs, real, window, stride)
+        try:
+            folder = _generate(a, variant, cfg, size)
+            s = sim_to_real(read_recordings(folder), real, window, stride)
+        except (OSError, ValueError, DatasetError) as e:     # e.g. every item failed: say so, go on
+            print(f"sim_to_real_radhar: ablation {variant}: {e}", file=sys.stderr)
+            metrics["ablation"][variant] = {"off": VARIANTS[variant][0], "error": str(e)}
+            continue
         metrics["ablation"][variant] = {"off": VARIANTS[variant][0], "accuracy": s["accuracy"], "recall": s["recall"]}
+        if a.classifier_seeds > 1:
+            metrics["ablation"][variant]["seeds"] = seed_spread(
+                [s] + [sim_to_real(read_recordings(folder), real, window, stride, seed=k)
+                       for k in range(1, a.classifier_seeds)])
     metrics["ablation"]["not_run"] = [v for v in VARIANTS if v != "full" and v not in ablation]
     metrics["seconds"] = {"generation": t_generate, "total": time.perf_counter() - t0}
     (a.out / "statistics.md").write_text(statistics_table(metrics["statistics"]["simulated"],
