@@ -190,24 +190,24 @@ REPO = Path(__file__).resolve().parents[1]
 
 
 # ----------------------------------------------------------------------------- worker (one run)
-def worker(spec: dict) -> dict:
-    t0 = time.perf_counter()
-    try:    # what make demo's entry point does first (a tree without sionnafmcw.heap did not)
+def limit_heap() -> None:
+    """What make demo's entry point does first: one glibc arena for the run's threads (a tree without
+    ``sionnafmcw.heap`` did not)."""
+    try:
         from sionnafmcw.heap import limit_arenas
     except ImportError:
         pass
     else:
         limit_arenas(1)
-    import numpy as np
 
-    from sionnafmcw import engines, sionna_rt  # noqa: F401  (Dr.Jit, Mitsuba and Sionna imported here)
+
+def run_setup(spec: dict, clear_store: bool = False) -> tuple:
+    """``(animation, radar, frames, engine, store)`` of a worker's ``spec`` (its ``scene``, ``radar``,
+    ``frames``, engine ``options`` and ``store``); ``clear_store`` removes a store left by an earlier run."""
+    from sionnafmcw import engines
     from sionnafmcw.animation import load_animation
     from sionnafmcw.radar import RadarConfig
-    from sionnafmcw.validation.circle_walk import analyse
-    from sionnafmcw.validation.common import run_engine
 
-    t_import = time.perf_counter() - t0
-    t0 = time.perf_counter()
     animation = load_animation(spec["scene"])
     radar = RadarConfig.resolve(spec["radar"])
     frames = list(range(min(spec["frames"], animation.num_frames)))
@@ -215,8 +215,26 @@ def worker(spec: dict) -> dict:
         engine = engines.create("path", **spec["options"])
     except (TypeError, ValueError, engines.EngineError) as exc:
         raise SystemExit(f"engine options {spec['options']}: {exc}") from None
-    t_setup = time.perf_counter() - t0
     store = Path(spec["store"])
+    if clear_store and store.exists():
+        import shutil
+        shutil.rmtree(store)
+    return animation, radar, frames, engine, store
+
+
+def worker(spec: dict) -> dict:
+    t0 = time.perf_counter()
+    limit_heap()
+    import numpy as np
+
+    from sionnafmcw import engines, sionna_rt  # noqa: F401  (Dr.Jit, Mitsuba and Sionna imported here)
+    from sionnafmcw.validation.circle_walk import analyse
+    from sionnafmcw.validation.common import run_engine
+
+    t_import = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    animation, radar, frames, engine, store = run_setup(spec)
+    t_setup = time.perf_counter() - t0
     cpu0 = walk_frames.cpu_seconds()
     run, seconds = run_engine(animation, radar, engine, store, frames=frames, seed=0, progress=False)
     cpu_seconds = walk_frames.cpu_seconds() - cpu0

@@ -170,28 +170,14 @@ def install_timers(events: list) -> None:
 def worker(spec: dict) -> dict:
     t0 = time.perf_counter()
     p0 = process_cpu()
-    try:
-        from sionnafmcw.heap import limit_arenas
-    except ImportError:
-        pass
-    else:
-        limit_arenas(1)
+    circle_walk.limit_heap()
     from sionnafmcw import engines, sionna_rt  # noqa: F401
-    from sionnafmcw.animation import load_animation
-    from sionnafmcw.radar import RadarConfig
     from sionnafmcw.simulation import simulate
 
     events: list = []
     install_timers(events)
     import_wall, import_cpu = time.perf_counter() - t0, process_cpu() - p0
-    animation = load_animation(spec["scene"])
-    radar = RadarConfig.resolve(spec["radar"])
-    frames = list(range(min(spec["frames"], animation.num_frames)))
-    engine = engines.create("path", **spec["options"])
-    store = Path(spec["store"])
-    if store.exists():
-        import shutil
-        shutil.rmtree(store)
+    animation, radar, frames, engine, store = circle_walk.run_setup(spec, clear_store=True)
     import tracemalloc
     tracemalloc.start() if spec.get("tracemalloc") else None
     p0, t0 = process_cpu(), time.perf_counter()

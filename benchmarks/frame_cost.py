@@ -264,30 +264,16 @@ def worker(spec: dict) -> dict:
     if spec.get("sequential"):
         return sequential(spec)
     t0 = time.perf_counter()
-    try:
-        from sionnafmcw.heap import limit_arenas
-    except ImportError:
-        pass
-    else:
-        limit_arenas(1)
+    circle_walk.limit_heap()
     import numpy as np
 
     from sionnafmcw import engines, sionna_rt  # noqa: F401
-    from sionnafmcw.animation import load_animation
-    from sionnafmcw.radar import RadarConfig
     from sionnafmcw.simulation import simulate
 
     totals: dict = {}
     install_timers(totals)
     t_import = time.perf_counter() - t0
-    animation = load_animation(spec["scene"])
-    radar = RadarConfig.resolve(spec["radar"])
-    frames = list(range(min(spec["frames"], animation.num_frames)))
-    engine = engines.create("path", **spec["options"])
-    store = Path(spec["store"])
-    if store.exists():
-        import shutil
-        shutil.rmtree(store)
+    animation, radar, frames, engine, store = circle_walk.run_setup(spec, clear_store=True)
     cpu0 = walk_frames.cpu_seconds()
     t0 = time.perf_counter()
     run = simulate(animation, radar, engine=engine, out=store, frames=frames, progress=False, seed=0,
