@@ -156,7 +156,8 @@ def main(argv=None):
     parser.add_argument("--frames", type=int, default=4)
     parser.add_argument("--chirps", type=int, default=64, help="chirps per Tx of walk-77ghz (128 samples)")
     parser.add_argument("--samples", type=int, default=20_000, help="PathEngine samples_per_src")
-    parser.add_argument("--scenario", default="moving_plate", choices=["moving_plate", "straight_walk", "radhar", "people"],
+    parser.add_argument("--scenario", default="moving_plate",
+                        choices=["moving_plate", "straight_walk", "radhar", "people"],
                         help="radhar: one person in a furnished room, people: --people in a room (both with --cfg's "
                              "radar and the engine's defaults)")
     parser.add_argument("--people", type=int, default=3, help="people of --scenario people")

@@ -224,7 +224,8 @@ def main(argv=None) -> int:
                             origin = engine.last_renders[0].source[0]
                             t0 = time.perf_counter()
                             chains = chain_channels(faces, origin, wavelength, depth, gamma)
-                            exact = [sum((x for c, x in chains.items() if len(c) == d), 0j) for d in range(1, depth + 1)]
+                            exact = [sum((x for c, x in chains.items() if len(c) == d), 0j)
+                                     for d in range(1, depth + 1)]
                             seconds = time.perf_counter() - t0
                             far = complex(np.sum(part_channels(faces, origin, wavelength, gamma, far_field=True)))
                         rows.append((n, h, samples, first_bounce_bound(engine.last_renders, wavelength),
@@ -232,16 +233,19 @@ def main(argv=None) -> int:
                     echo = sum(exact)
                     print(f"{kind} {leg:.2f} m at {distance:.1f} m, {aspect:.0f} deg: exact "
                           + "  ".join(f"b{d + 1} {db(x):8.2f}" for d, x in enumerate(exact))
-                          + f"  echo {db(echo):8.2f} ({seconds:.1f} s); b1 far field - near {db(far) - db(exact[0]):+.2f}",
+                          + f"  echo {db(echo):8.2f} ({seconds:.1f} s); "
+                          f"b1 far field - near {db(far) - db(exact[0]):+.2f}",
                           flush=True)
                     for n, h, samples, bound, by_chain in rows:
                         per = "  ".join(f"b{d + 1} {db(x) - db(e):+7.2f}" if abs(x) + abs(e) else f"b{d + 1}    none"
                                         for d, (x, e) in enumerate(zip(h, exact)))
                         print(f"  N={n:3d} [{samples:6d}]: {per}  echo {db(sum(h)) - db(echo):+6.2f}  "
                               f"|b1 - exact|/|echo| {db(abs(h[0] - exact[0]) / abs(echo)):+7.2f}  "
-                              f"E1/|echo| {db(bound[0] / abs(echo)):+7.2f} (unattenuated {db(bound[1] / abs(echo)):+7.2f})",
+                              f"E1/|echo| {db(bound[0] / abs(echo)):+7.2f} "
+                              f"(unattenuated {db(bound[1] / abs(echo)):+7.2f})",
                               flush=True)
-                        for chain in sorted(set(chains) | set(by_chain), key=lambda c: (len(c), c)) if args.chains else ():
+                        listed = sorted(set(chains) | set(by_chain), key=lambda c: (len(c), c)) if args.chains else ()
+                        for chain in listed:
                             tubes, x = by_chain.get(chain, (0, 0j))
                             print(f"      chain {'-'.join(map(str, chain)):6s} exact {db(chains.get(chain, 0j)):8.2f}  "
                                   f"engine {db(x):8.2f} [{tubes:5d} tubes]", flush=True)

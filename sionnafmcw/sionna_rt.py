@@ -491,10 +491,10 @@ def track_kernels(enabled: bool, seen_hashes: set):
 
 __all__ = [
     "ALLOW_UNVERIFIED_ENV", "AntennaArray", "Candidates", "DEFAULT_THICKNESS", "INVALID_SHAPE", "ITURadioMaterial",
-    "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LLVM_TAIL_PAD", "LambertianPattern", "MIN_SEGMENT_LENGTH_MODULES",
-    "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter", "UnverifiedVersionError",
-    "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_copy", "aligned_float", "aligned_float64", "antenna_pattern_registry",
-    "array_backend", "cast_rays", "cast_scene", "check_versions", "dr", "drjit_array", "drjit_element_gain", "installed_versions",
-    "load_scene_at", "sionna_antenna_pattern",
+    "ITU_MATERIALS_PROPERTIES", "InteractionType", "KernelCounts", "LLVM_TAIL_PAD", "LambertianPattern",
+    "MIN_SEGMENT_LENGTH_MODULES", "PathSolver", "RadioMaterial", "Receiver", "SionnaBoundaryError", "Transmitter",
+    "UnverifiedVersionError", "VERIFIED_VERSIONS", "DRJIT", "DrJitOps", "aligned_copy", "aligned_float",
+    "aligned_float64", "antenna_pattern_registry", "array_backend", "cast_rays", "cast_scene", "check_versions", "dr",
+    "drjit_array", "drjit_element_gain", "installed_versions", "load_scene_at", "sionna_antenna_pattern",
     "mi", "min_segment_length", "set_min_segment_length", "solve_fields", "trace_candidates", "track_kernels",
 ]

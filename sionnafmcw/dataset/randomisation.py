@@ -35,7 +35,7 @@ RADHAR_RANGES = {
     "build": ({"choice": ["male", "female"]}, "girths of men or women (Heinz et al. 2003)"),
     "playback_rate": ({"uniform": [0.8, 1.1]}, "-20 to +10 % in tempo: people repeat the same movement faster or "
                       "slower (an assumed spread, not a measured one); +10 % at most so that 60 frames at 30 fps "
-                      "fit in the 2.29 s walk clip"),
+                      "fit in the shortest clip, the 2.29 s CMU walk (walk_source=clip)"),
     "walk_speed": ({"uniform": [0.4, 0.8]}, "walk: the real walks' pace, a slow walk in a small space: one loop "
                    "(twice the time between sign changes of the moving points' median Doppler) takes 4.7-9.3 s "
                    "(quartiles, median 7.3 s), i.e. 2 pi R / T = 0.4-1.0 m/s (median 0.6) on the loops below, and "

@@ -197,9 +197,9 @@ def mitsuba_mesh(name: str, vertices, faces):
     """A Mitsuba triangle mesh of ``vertices [V, 3]`` (float32) and ``faces [F, 3]``."""
     from ..sionna_rt import aligned_float, drjit_array, mi
 
-    v = np.ascontiguousarray(np.asarray(vertices, dtype=np.float32).ravel())
-    f = np.ascontiguousarray(np.asarray(faces, dtype=np.uint32).ravel())
-    mesh = mi.Mesh(name, len(v) // 3, len(f) // 3, has_vertex_normals=False, has_vertex_texcoords=False)
+    v = np.asarray(vertices, dtype=np.float32).reshape(-1, 3)
+    f = np.asarray(faces, dtype=np.uint32).reshape(-1, 3)
+    mesh = mi.Mesh(name, len(v), len(f), has_vertex_normals=False, has_vertex_texcoords=False)
     params = mi.traverse(mesh)
     params["vertex_positions"] = aligned_float(v)
     params["faces"] = drjit_array(mi.UInt32, f, np.uint32)
