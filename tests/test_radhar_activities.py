@@ -4,9 +4,11 @@ r"""RadHAR's five activities on the mocap body (``sionnafmcw.scenes.radhar``, ``
 * Every class builds in the radar's frame: the person's start point (a walk's middle) at the range and
   azimuth asked, the manifest labelled with the class; a user's BVH file plays for any class; a walk
   that would run into the radar is an error. A walk on a loop: its pelvis circles ``walk_radius`` (a
-  least-squares circle, to the walker's lateral sway of 3.2 cm) at ``walk_speed`` (the angle swept
-  times the radius, to 2 %), anticlockwise seen from above unless mirrored, and heads along
-  ``walk_direction`` at the middle frame (to the sway's few degrees).
+  least-squares circle, to the walker's lateral sway :math:`a_l` = 3.2 cm) at ``walk_speed`` (the angle
+  swept times the radius, to 2 %: the sway moves each end's angle by up to :math:`a_l/R` = 0.04 rad, 1.2 %
+  of the 6.7 rad swept in 9 s at 0.6 m/s on 0.8 m), anticlockwise seen from above unless mirrored, and
+  heads along ``walk_direction`` at the middle frame (to 5 degrees: twice the sway's
+  :math:`a_l/R` = 2.3 degrees of position angle).
 * Jumping jacks: the hands rise above the head once per jack, and a jack is two hops (feet apart, feet
   together), so the wrists' period is twice the pelvis's; the playback rate divides both.
 * Squats: two of them, each a deep squat: at the bottom the hip joint is no higher than the knee (the
