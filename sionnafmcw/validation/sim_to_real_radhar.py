@@ -30,8 +30,14 @@ import json
 import time
 from pathlib import Path
 
+from ..scenes import furniture as _furniture
+
 #: RadHAR's folder names, in the data set's order.
 FOLDERS = ("boxing", "jack", "jump", "squats", "walk")
+
+#: The furniture counts of the room builders (:data:`sionnafmcw.scenes.furniture.PARAMETERS`; the others are
+#: ``furniture_*`` settings): a scene without a room has none.
+FURNITURE_COUNTS = tuple(n for n in _furniture.PARAMETERS if not n.startswith("furniture_"))
 
 #: Ablation variants: name -> (what is off, changes to the data-set spec). ``full`` is the default set.
 VARIANTS = {
@@ -43,8 +49,7 @@ VARIANTS = {
     "no_receiver": ("receiver effects: no thermal noise, no phase noise, no noise-figure draw",
                     {"noise": False, "receiver": False}),
     "no_room": ("room and furniture clutter: the person alone in free space",
-                {"fixed": {"room": False, **{n: 0 for n in ("tables", "chairs", "sofas", "shelves", "cabinets",
-                                                            "doors", "monitors")}}}),
+                {"fixed": {"room": False, **{n: 0 for n in FURNITURE_COUNTS}}}),
     "no_randomisation": ("domain randomisation: every item at the builder's defaults", {"randomise": False}),
 }
 
