@@ -144,6 +144,6 @@ def recording_statistics(recordings, near_range: float = NEAR_RANGE) -> dict:
         "height_m": {"p05": q(z, 0.05), "p95": q(z, 0.95)},
         "forward_m": {"p05": q(x, 0.05), "median": q(x, 0.5), "p95": q(x, 0.95)},
         "moving": {"points_per_frame": float(np.count_nonzero(k)) / frames if frames else float("nan"),
-                   "frames_without": 1.0 - frames_moving / frames if frames else float("nan"),
+                   "frames_without": (frames - frames_moving) / frames if frames else float("nan"),
                    "share_bin_1": share(k == 1), "share_bin_2_or_more": share(k >= 2)},
     }
