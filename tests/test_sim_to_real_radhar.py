@@ -15,8 +15,8 @@ import pytest
 from sionnafmcw.ti.formats.radhar import Recording, read_recording, write_npz
 from sionnafmcw.validation.har_classifier import (WINDOW, WindowClassifier, frame_features, scores,
                                                   windows)
-from sionnafmcw.validation.sim_to_real_radhar import (FOLDERS, VARIANTS, main, read_recordings, session_folds,
-                                                      session_of, variant_spec)
+from sionnafmcw.validation.sim_to_real_radhar import (FOLDERS, VARIANTS, main, moving_table, read_recordings,
+                                                      session_folds, session_of, variant_spec)
 
 RADHAR = next((p / "shared" / "realdata" / "radhar" for p in Path(__file__).resolve().parents
                if (p / "shared" / "realdata" / "radhar").is_dir()), Path("shared/realdata/radhar"))
@@ -152,6 +152,62 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
     assert err.count("\n") == 1 and str(short) in err and "at most 5 frames, fewer than a window of 10" in err
 
 
+def test_moving_table_rows():
+    def stats(per_frame, without, b1, b2):
+        return {"moving": {"points_per_frame": per_frame, "frames_without": without, "share_bin_1": b1,
+                           "share_bin_2_or_more": b2}}
+
+    table = moving_table({"boxing": stats(1.655, 0.6833, 0.03614, 0.05358), "jump": stats(0.5, 0.25, 0.1, 0.0)},
+                         {"boxing": stats(3.179, 0.2464, 0.10988, 0.07822), "walk": stats(2.28, 0.45, 0.142, 0.0034)})
+    rows = table.splitlines()
+    assert len(rows) == 2 + 3                                           # jack and squats: on neither side
+    assert rows[2] == "| boxing | 1.66 / 3.18 | 0.68 / 0.25 | 0.036 / 0.110 | 0.054 / 0.078 |"
+    assert rows[3] == "| jump | 0.50 / - | 0.25 / - | 0.100 / - | 0.000 / - |"
+    assert rows[4] == "| walk | - / 2.28 | - / 0.45 | - / 0.142 | - / 0.003 |"
+
+
+@needs_radhar
+def test_statistics_only_trains_nothing(tmp_path, capsys):
+    """``--statistics-only`` on a hand-made synthetic jump recording: frames 0, 1 and 3 have points (2 none, not
+    counted); beyond 0.3 m frame 0 has bins +1 and -2, frame 1 only a static point (its bin +1 point is near),
+    frame 3 bin +2: 3 moving points in 3 frames, one frame without, 1 of 5 points at +-1, 2 at +-2 and beyond."""
+    synthetic = tmp_path / "synthetic"
+    (synthetic / "jump").mkdir(parents=True)
+    write_npz(synthetic / "jump" / "s0_20_jump_1.npz",
+              recording([0, 0, 0, 1, 1, 3], [8, 9, 6, 9, 8, 10], [2.0, 2.0, 2.5, 0.1, 2.0, 3.0], [0.0] * 6))
+    out = tmp_path / "o"
+    assert main(["--real", str(RADHAR / "train"), "--out", str(out), "--quick", "--statistics-only",
+                 "--synthetic", str(synthetic)]) == 0
+    printed = capsys.readouterr().out.strip().splitlines()
+    metrics = json.loads(printed[-1])
+    assert metrics == json.loads((out / "metrics.json").read_text())
+    assert metrics["statistics_only"] is True and "sim_to_real" not in metrics and "real_to_real" not in metrics
+    moving = metrics["statistics"]["simulated"]["jump"]["moving"]
+    assert moving == {"points_per_frame": 1.0, "frames_without": 1 / 3, "share_bin_1": 0.2,
+                      "share_bin_2_or_more": 0.4}
+    assert set(metrics["statistics"]["real"]) == set(FOLDERS) and metrics["real"]["recordings"] == 10
+    report = (out / "statistics.md").read_text()
+    assert "| jump | 1.00 / " in report and "| jump | simulated |" in report and report.strip() in "\n".join(printed)
+    assert sorted(metrics["figures"]) == ["doppler.png", "frames.png"] and not (out / "confusion.png").exists()
+    assert not (out / "datasets").exists()
+    # a recording whose velocity is off its Doppler grid: one line naming it, no traceback
+    bad = tmp_path / "bad"
+    (bad / "jump").mkdir(parents=True)
+    rec = recording([0, 0, 0], [8, 9, 10], [2.0] * 3, [0.0] * 3, source="s0_20_jump_9.npz")
+    write_npz(bad / "jump" / "s0_20_jump_9.npz", Recording(**{**rec.arrays(), "activity": "jump",
+                                                               "source": "s0_20_jump_9.npz"}
+                                                            | {"velocity": np.array([0.0, 0.9, 1.2], np.float32)}))
+    assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o2"), "--quick", "--statistics-only",
+                 "--synthetic", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "s0_20_jump_9.npz: point 1 has velocity 0.9 m/s" in err and "Traceback" not in err
+    # nothing to score: the classifier's options are refused
+    for extra in (["--ablation", "no_room"], ["--classifier-seeds", "3"]):
+        with pytest.raises(SystemExit):
+            main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o3"), "--statistics-only", *extra])
+        assert "--statistics-only trains none" in capsys.readouterr().err
+
+
 @needs_radhar
 @pytest.mark.slow
 def test_quick_experiment_end_to_end(tmp_path, capsys):
@@ -173,6 +229,9 @@ def test_quick_experiment_end_to_end(tmp_path, capsys):
     assert set(metrics["statistics"]["simulated"]) == set(FOLDERS) == set(metrics["statistics"]["targets"])
     assert metrics["ablation"]["full"]["accuracy"] == s2r["accuracy"]
     assert (out / "confusion.png").is_file() and (out / "statistics.md").is_file()
+    assert "moving points a frame, sim / real" in (out / "statistics.md").read_text()
+    assert set(metrics["statistics"]["simulated"]["jump"]["moving"]) == {"points_per_frame", "frames_without",
+                                                                        "share_bin_1", "share_bin_2_or_more"}
     # --synthetic reuses the set: nothing is generated, the same training data gives the same scores
     assert main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "again"), "--quick",
                  "--synthetic", str(out / "synthetic"), "--classifier-seeds", "3"]) == 0

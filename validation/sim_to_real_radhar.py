@@ -2,7 +2,7 @@
 (see sionnafmcw.validation.sim_to_real_radhar).
 
     python validation/sim_to_real_radhar.py --real ../shared/realdata/radhar/train --out out/sim_to_real \
-        [--synthetic DIR] [--quick] [--items N] [--ablation no_multipath,lambertian,...]
+        [--synthetic DIR] [--quick] [--items N] [--ablation no_multipath,lambertian,...] [--statistics-only]
 """
 
 import sys

@@ -23,6 +23,27 @@ Then:
 
 No simulator setting is fitted to the real data and nothing but the ``real_to_real`` ceiling is
 trained on it.
+
+``OUT/metrics.json`` (also printed last, on one line) holds:
+
+* ``sim_to_real``: :func:`~.har_classifier.scores` (``accuracy``, ``recall`` {class: r}, ``confusion``
+  [true x predicted], ``windows``), ``train_windows``, ``train_accuracy``; with ``--classifier-seeds K``
+  above 1 also ``seeds`` (:func:`seed_spread`);
+* ``real_to_real``: the same scores, ``folds`` and ``sessions``;
+* ``statistics`` (:func:`statistics`): ``simulated`` and ``real``, per class the
+  :func:`~.point_cloud_statistics.recording_statistics` (``frames``, ``points``, ``points_per_frame``,
+  ``zero_velocity_share``, ``intensity_db``, ``height_m``, ``forward_m``, and ``moving``:
+  ``points_per_frame``, ``frames_without``, ``share_bin_1``, ``share_bin_2_or_more``); ``targets`` per
+  class (``points_in_real_band``, ``zero_velocity_within_0.1``); ``doppler``: ``simulated`` and ``real``,
+  per class the shares of the 16 Doppler bins (:func:`doppler_histograms`);
+* ``ablation``: per variant ``off`` and ``accuracy``, ``recall`` (and ``seeds``), or ``error``; ``not_run``;
+* ``synthetic`` (``folder``, ``recordings``, ``per_class``), ``real`` (``folder``, ``recordings``),
+  ``window``, ``stride``, ``quick``, ``seconds`` (``generation``, ``total``), ``figures`` (the PNGs).
+
+``OUT/statistics.md`` holds the two Markdown tables, :func:`statistics_table` and :func:`moving_table`.
+``--statistics-only`` computes the statistics alone (no classifier, no ceiling, no ablation): its
+``metrics.json`` has ``statistics``, ``synthetic``, ``real``, ``quick``, ``seconds``, ``figures``
+(``doppler.png``, ``frames.png``) and ``statistics_only: true``.
 """
 from __future__ import annotations
 
@@ -235,6 +256,30 @@ def statistics_table(simulated: dict, real: dict) -> str:
     return "\n".join(rows) + "\n"
 
 
+def moving_table(simulated: dict, real: dict) -> str:
+    """Per class, the moving points beyond 0.3 m (``moving`` of
+    :func:`~.point_cloud_statistics.recording_statistics`), simulated / real, as a Markdown table: moving
+    points a frame, the share of frames without one, and the shares of the points beyond 0.3 m at Doppler
+    bin +-1 and at +-2 and beyond (``-`` where a side has no recording of the class)."""
+    rows = ["| class | moving points a frame, sim / real | frames without a moving point, sim / real "
+            "| share at Doppler bin +-1, sim / real | at +-2 and beyond, sim / real |", "|---|---|---|---|---|"]
+    columns = (("points_per_frame", "{:.2f}"), ("frames_without", "{:.2f}"), ("share_bin_1", "{:.3f}"),
+               ("share_bin_2_or_more", "{:.3f}"))
+    for cls in FOLDERS:
+        if cls not in simulated and cls not in real:
+            continue
+        cells = [" / ".join(fmt.format(table[cls]["moving"][key]) if cls in table else "-"
+                            for table in (simulated, real)) for key, fmt in columns]
+        rows.append(f"| {cls} | " + " | ".join(cells) + " |")
+    return "\n".join(rows) + "\n"
+
+
+def statistics_markdown(stats: dict) -> str:
+    """``statistics.md``: :func:`statistics_table` and :func:`moving_table` of ``stats`` (:func:`statistics`)."""
+    return (statistics_table(stats["simulated"], stats["real"]) + "\n"
+            + moving_table(stats["simulated"], stats["real"]))
+
+
 def statistics(synthetic: list, real: list) -> dict:
     """``{"simulated": {class: stats}, "real": {...}, "targets": {class: {...}}}``: the statistics of
     :mod:`.point_cloud_statistics` per class and the issue's two targets per class (the simulated
@@ -338,23 +383,28 @@ def frames_figure(synthetic: list, real: list):
             ax.set_xlabel("forward x, m")
     for ax in axes[:, 0]:
         ax.set_ylabel("height z, m")
-    axes[0, 0].legend(fontsize=7)
+    labelled = next((ax for ax in axes.flat if ax.get_legend_handles_labels()[0]), None)
+    if labelled is not None:             # the first panel with a frame (a class may be missing)
+        labelled.legend(fontsize=7)
     fig.tight_layout()
     return fig
 
 
 def figures(out: Path, metrics: dict, synthetic: list, real: list) -> list[str]:
-    """:func:`confusion_figure`, :func:`doppler_figure` and :func:`frames_figure` as PNGs in ``out``
-    (``confusion.png``, ``doppler.png``, ``frames.png``); returns their names."""
+    """:func:`confusion_figure` (where ``metrics`` has ``sim_to_real``), :func:`doppler_figure` and
+    :func:`frames_figure` as PNGs in ``out`` (``confusion.png``, ``doppler.png``, ``frames.png``); returns
+    their names."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     written = []
-    for name, fig, dpi in (("confusion.png", confusion_figure(metrics), 120),
-                           ("doppler.png", doppler_figure(synthetic, real), 120),
-                           ("frames.png", frames_figure(synthetic, real), 110)):
+    makers = [("confusion.png", lambda: confusion_figure(metrics), 120)] if "sim_to_real" in metrics else []
+    makers += [("doppler.png", lambda: doppler_figure(synthetic, real), 120),
+               ("frames.png", lambda: frames_figure(synthetic, real), 110)]
+    for name, make, dpi in makers:
+        fig = make()
         fig.savefig(Path(out) / name, dpi=dpi)
         plt.close(fig)
         written.append(name)
@@ -385,6 +435,9 @@ def main(argv=None) -> int:
     p.add_argument("--classifier-seeds", type=int, default=1, metavar="K",
                    help="train the sim-to-real classifier with seeds 0..K-1 and report each and their mean "
                         "(a small set's accuracy moves with the seed)")
+    p.add_argument("--statistics-only", action="store_true",
+                   help="only the point-cloud statistics, simulated against real (statistics.md, metrics.json, "
+                        "doppler.png, frames.png): no classifier, no ceiling, no ablation")
     a = p.parse_args(argv)
     if not 0 <= a.seed < 2**31:
         p.error(f"--seed must be in 0..2**31-1, got {a.seed}")
@@ -407,6 +460,10 @@ def main(argv=None) -> int:
     if unknown:
         p.error(f"--ablation: unknown {', '.join(unknown)} (choose from "
                 f"{', '.join(v for v in VARIANTS if v != 'full')})")
+    if a.statistics_only and ablation:
+        p.error("--ablation scores classifiers; --statistics-only trains none: give one of them")
+    if a.statistics_only and a.classifier_seeds > 1:
+        p.error("--classifier-seeds seeds the classifier; --statistics-only trains none: give one of them")
     a.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     try:
@@ -423,6 +480,18 @@ def main(argv=None) -> int:
         print(f"sim_to_real_radhar: {e}", file=sys.stderr)
         return e.exit_status
     t_generate = time.perf_counter() - t0
+    try:
+        stats = statistics(synthetic, real)
+    except ValueError as e:              # a recording whose Doppler fields are not the driver's
+        print(f"sim_to_real_radhar: {e}", file=sys.stderr)
+        return 2
+    stats["doppler"] = {"simulated": doppler_histograms(synthetic), "real": doppler_histograms(real)}
+    sets = {"synthetic": {"folder": str(synthetic_dir), "recordings": len(synthetic),
+                          "per_class": {c: sum(r.activity == c for r in synthetic) for c in FOLDERS}},
+            "real": {"folder": str(a.real), "recordings": len(real)}}
+    if a.statistics_only:
+        metrics = {"statistics": stats, "statistics_only": True, **sets, "quick": bool(a.quick)}
+        return _write_report(a.out, metrics, synthetic, real, t0, t_generate)
     window, stride = size["window"], size["stride"]
     try:
         s2r = sim_to_real(synthetic, real, window, stride)
@@ -434,13 +503,9 @@ def main(argv=None) -> int:
                                             for k in range(1, a.classifier_seeds)])
     metrics = {"sim_to_real": s2r,
                "real_to_real": real_to_real(real, window, stride),
-               "statistics": statistics(synthetic, real),
-               "ablation": {},
-               "synthetic": {"folder": str(synthetic_dir), "recordings": len(synthetic),
-                             "per_class": {c: sum(r.activity == c for r in synthetic) for c in FOLDERS}},
-               "real": {"folder": str(a.real), "recordings": len(real)},
+               "statistics": stats,
+               "ablation": {}, **sets,
                "window": window, "stride": stride, "quick": bool(a.quick)}
-    metrics["statistics"]["doppler"] = {"simulated": doppler_histograms(synthetic), "real": doppler_histograms(real)}
     metrics["ablation"]["full"] = {"off": VARIANTS["full"][0], "accuracy": metrics["sim_to_real"]["accuracy"]}
     for variant in ablation:
         try:
@@ -456,12 +521,20 @@ def main(argv=None) -> int:
                 [s] + [sim_to_real(read_recordings(folder), real, window, stride, seed=k)
                        for k in range(1, a.classifier_seeds)])
     metrics["ablation"]["not_run"] = [v for v in VARIANTS if v != "full" and v not in ablation]
+    return _write_report(a.out, metrics, synthetic, real, t0, t_generate)
+
+
+def _write_report(out: Path, metrics: dict, synthetic: list, real: list, t0: float, t_generate: float) -> int:
+    """``statistics.md``, the figures and ``metrics.json`` in ``out`` (crash-safe writes); print the tables,
+    then the metrics JSON on one line."""
+    from ..fs import atomic_write_text
+
     metrics["seconds"] = {"generation": t_generate, "total": time.perf_counter() - t0}
-    (a.out / "statistics.md").write_text(statistics_table(metrics["statistics"]["simulated"],
-                                                          metrics["statistics"]["real"]))
-    metrics["figures"] = figures(a.out, metrics, synthetic, real)
-    (a.out / "metrics.json").write_text(json.dumps(metrics, indent=2))
-    print((a.out / "statistics.md").read_text())
+    report = statistics_markdown(metrics["statistics"])
+    atomic_write_text(out / "statistics.md", report)
+    metrics["figures"] = figures(out, metrics, synthetic, real)
+    atomic_write_text(out / "metrics.json", json.dumps(metrics, indent=2))
+    print(report)
     print(json.dumps(metrics))
     return 0
 
