@@ -266,6 +266,9 @@ class SurfaceSamples:
 
     def select(self, mask) -> "SurfaceSamples":
         """The samples where ``mask`` (``[P]`` bool or indices) holds."""
+        mask = np.asarray(mask)
+        if mask.dtype == bool:
+            mask = np.flatnonzero(mask)   # one pass over the mask; then each field gathers its rows only
         kw = {}
         for name in self.__dataclass_fields__:
             value = getattr(self, name)
