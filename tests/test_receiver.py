@@ -224,6 +224,58 @@ def test_steady_state_gain_leaves_out_at_most_the_stated_transient():
         assert if_filter.transient_bound(chain, f, radar.adc_start_time, radar.fs) < 1e-3
 
 
+TABLE_CHAINS = {
+    "ti": ti.if_chain(),
+    "ti-hpf-3-3": ti.if_chain(3, 3),
+    "butter-hp4+bessel-lp5": [{"kind": "butter", "type": "highpass", "order": 4, "corner": 2e5},
+                              {"kind": "bessel", "type": "lowpass", "order": 5, "corner": 3e6}],
+    "cheby1-lp6": [{"kind": "cheby1", "type": "lowpass", "order": 6, "corner_fs": 0.45, "ripple": 1.0}],
+    "cheby2-hp3+shifted-ellip": [{"kind": "cheby2", "type": "highpass", "order": 3, "corner": 1e5, "attenuation": 40.0},
+                                 {"kind": "ellip", "type": "lowpass", "order": 4, "corner_fs": 0.3, "centre_fs": 0.3,
+                                  "ripple": 0.1, "attenuation": 50.0}],
+}
+
+
+@pytest.mark.parametrize("name", sorted(TABLE_CHAINS))
+def test_tabulated_if_gain_is_within_its_bound_of_the_exact_response(name):
+    """The table's gain (linear interpolation between exact nodes, if_filter.table_step) against the exact
+    product over the chain's roots at 1e6 frequencies from -0.5 F_s to 1.6 F_s: within TABLE_TOLERANCE, and
+    the derivation's curvature bound M2 above the second derivative found numerically on a 2 Hz grid."""
+    fs = AWR.fs
+    chain = if_filter.check_chain(TABLE_CHAINS[name])
+    f = np.random.default_rng(3).uniform(-0.5 * fs, 1.6 * fs, 1_000_000)
+    step = if_filter.table_step(chain, fs)
+    assert step is not None and step > 10.0
+    error = np.abs(if_filter.tabulated_response(chain, f, fs) - if_filter.response(chain, f, fs))
+    assert error.max() <= if_filter.TABLE_TOLERANCE
+    assert error.max() > 1e-3 * if_filter.TABLE_TOLERANCE      # it does interpolate (not the exact path)
+    # the bound's premise: |d2H/dw2| <= M2 = 8 eps / (2 pi step)^2 everywhere on the axis
+    m2 = 8 * if_filter.TABLE_TOLERANCE / (2 * np.pi * step) ** 2
+    h = 2.0
+    grid = np.arange(-0.5 * fs, 1.6 * fs, h)
+    values = if_filter.response(chain, grid, fs)
+    second = np.abs(values[2:] - 2 * values[1:-1] + values[:-2]) / (2 * np.pi * h) ** 2
+    assert second.max() <= m2
+    assert second.max() > 1e-3 * m2
+
+
+def test_tabulated_if_gain_is_exact_where_its_bound_does_not_apply_and_per_frequency():
+    """Repeated poles (two equal sections): no table, the exact response bit for bit; a few frequencies: the
+    exact response; and a frequency's tabulated gain does not depend on the other frequencies asked with it."""
+    fs = AWR.fs
+    twice = if_filter.check_chain(ti.hpf_sections(0, 0)[:1] * 2)
+    f = np.linspace(0.0, fs, 1001)
+    assert if_filter.table_step(twice, fs) is None
+    assert np.array_equal(if_filter.tabulated_response(twice, f, fs), if_filter.response(twice, f, fs))
+    chain = ti.if_chain()
+    few = f[:3]
+    assert np.array_equal(if_filter.tabulated_response(chain, few, fs), if_filter.response(chain, few, fs))
+    many = np.random.default_rng(5).uniform(0.0, fs, 100_000)
+    whole = if_filter.tabulated_response(chain, many, fs)
+    part = if_filter.tabulated_response(chain, np.concatenate([many[:40_000], [0.9 * fs] * 20_000]), fs)
+    assert np.array_equal(whole[:40_000], part[:40_000])
+
+
 def test_if_filter_spec_errors_name_the_section_and_field():
     good = ti.if_chain()
     for bad, match in (

@@ -39,9 +39,10 @@ def beat_frequency(echoes, radar) -> np.ndarray:
 
 def filter_echoes(echoes, radar):
     """``echoes`` with every gain multiplied by :math:`\\overline{H(f_p)}` (the beat carries
-    :math:`\\bar a`): the IF chain in steady state (:mod:`.if_filter`). The same object when the radar
-    has no IF chain; labels and the static block are kept (the static block stays bit for bit the
-    same from frame to frame, as the chain's gain depends on nothing else)."""
+    :math:`\\bar a`): the IF chain in steady state (:mod:`.if_filter`), its gain interpolated in a table
+    of exact values to within :data:`~.if_filter.TABLE_TOLERANCE` (:func:`~.if_filter.tabulated_response`).
+    The same object when the radar has no IF chain; labels and the static block are kept (the static
+    block stays bit for bit the same from frame to frame, as the chain's gain depends on nothing else)."""
     if not radar.if_filter or echoes.num_contributions == 0:
         return echoes
     return echoes.map_parts(lambda part: _filtered(part, radar))
@@ -51,7 +52,7 @@ def _filtered(echoes, radar):
     """:func:`filter_echoes` of an :class:`~sionnafmcw.Echoes` that is not joined (or one part)."""
     if echoes.num_contributions == 0:
         return echoes
-    h = if_filter.response(radar.if_filter, beat_frequency(echoes, radar), radar.fs)
+    h = if_filter.tabulated_response(radar.if_filter, beat_frequency(echoes, radar), radar.fs)
     out = copy.copy(echoes)
     out.a = echoes.a * np.conj(h)
     return out
