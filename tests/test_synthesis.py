@@ -322,3 +322,30 @@ def test_single_precision_strengths_round_only_the_phase(small_radar):
         assert single.dtype == np.complex64 and double.dtype == np.complex128
         assert np.all(np.abs(single - double) <= 4e-7 * c.amplitude)
         np.testing.assert_allclose(np.abs(double), c.amplitude, rtol=1e-15)
+
+
+@pytest.mark.parametrize("noise_budget", [False, True])
+def test_still_contributions_are_summed_once_for_every_chirp(small_radar, noise_budget):
+    """Still targets (zero Doppler, a radar at rest) have the same beat in every chirp: the fast sum takes
+    them through a 1-D transform over the samples (nufft._still_cubes), so every chirp of a still-only cube
+    is the same row bit for bit (the 2-D transform's rows differ by its own error), within the error bound
+    of the whole sum of the direct sum; mixed with moving targets and with phase-noise weights, both sums
+    within the bound the accuracy module gives the whole (still and moving together)."""
+    from sionnafmcw.synthesis import noise_error_budget, synthesis_accuracy
+
+    radar = small_radar
+    budget = noise_error_budget(radar) if noise_budget else None
+    still = random_echoes(radar, 300, seed=11, max_speed=0.0)
+    still = Echoes(still.a * (0.05 if noise_budget else 1.0), still.tau, still.doppler)
+    assert np.all(still.doppler == 0.0)
+    fast = beat_nufft(still, radar, max_error=budget)
+    assert np.array_equal(fast, np.broadcast_to(fast[:1], fast.shape))
+    direct = beat_direct(still, radar)
+    assert max_channel_error(fast, direct) <= synthesis_accuracy(still, radar, max_error=budget).error_bound
+    mixed = Echoes.concatenate([still, random_echoes(radar, 100, seed=12, max_speed=6.0)])
+    weights = np.random.default_rng(13).uniform(0.0, 2e-8, mixed.a.shape)
+    bound = synthesis_accuracy(mixed, radar, max_error=budget).error_bound
+    fast, fast_w = beat_nufft(mixed, radar, max_error=budget, weights=weights)
+    direct, direct_w = beat_direct(mixed, radar, weights=weights)
+    assert max_channel_error(fast, direct) <= bound
+    assert max_channel_error(fast_w, direct_w) <= bound * weights.max()

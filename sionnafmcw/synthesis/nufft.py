@@ -140,6 +140,13 @@ class _Channel:
     weight: np.ndarray | None = None   # real per-contribution weights of a second sum (``weights``), or None
     dropped: np.ndarray | None = None  # phase (rad) of the terms the accelerating bases leave out, or None
 
+    def select(self, keep) -> "_Channel":
+        """The contributions where ``keep`` (``[P]`` bool) holds."""
+        pick = (lambda a: None if a is None else a[keep])
+        return _Channel(self.m, self.n, self.x[keep], self.y[keep], self.gain[keep], self.phase[keep],
+                        tuple(r[keep] for r in self.residual), self.phases[:, keep], self.amplitude[keep],
+                        pick(self.weight), pick(self.dropped))
+
     def strength(self, dtype) -> np.ndarray:
         r""":math:`g_p = \bar a_p e^{j\,\mathrm{phase}}` in the transform's precision: in complex64 the
         phase (within :math:`[-\pi, 2\pi]`) is rounded to float32 first, an error of at most
@@ -178,6 +185,7 @@ class _Grid:
         self.eps1 = radar.slope / (radar.fs * f_mid)
         self.eps2 = radar.slope / (radar.block_interval * f_mid * radar.fs**2)
         grid_l, grid_k = np.meshgrid(lc, kc, indexing="ij")  # [L, Ns]
+        self.k = kc                                           # the centred sample indices k' [Ns]
         self.x = grid_k.ravel()
         self.y = (grid_l * (1 + self.eps1 * grid_k) + self.eps2 * grid_k**2).ravel()
         # the time within the block in TDM blocks, w' = l' + k'/(T_b F_s) (module docstring)
@@ -572,6 +580,11 @@ def _beat(echoes, radar, grid, workers, nufft_tol, taylor_tol, max_error, channe
     scale = np.sqrt(radar.tx_power)
 
     def run(group, shift):
+        still = [_still(c) for c in group]
+        cubes = _still_cubes(group, still, sums, dtype, real, scale, accuracy.nufft_tol, upsampfac, grid)
+        group = [c if not s.any() else c.select(~s) for c, s in zip(group, still)]
+        if not any(c.x.size for c in group):
+            return cubes
         sizes = [c.x.size for c in group]
         offsets = np.concatenate([[0], np.cumsum(sizes)])
         # the last columns: two sources of zero strength at the corners of the band (ANCHORS)
@@ -595,7 +608,6 @@ def _beat(echoes, radar, grid, workers, nufft_tol, taylor_tol, max_error, channe
                     target_y.astype(real))
         values = plan.execute(vectors if vectors.shape[0] > 1 else vectors[0])
         values = np.reshape(values, (len(group), rows, L, Ns))
-        cubes = []
         for j, c in enumerate(group):
             for o, (first, count) in enumerate(((0, len(terms)), (len(terms), weighted_terms))[:sums]):
                 cube = values[j, first].copy()  # terms[0] is the constant monomial (basis 1)
@@ -612,8 +624,56 @@ def _beat(echoes, radar, grid, workers, nufft_tol, taylor_tol, max_error, channe
         results = [run(g, s) for g, s in zip(groups, shifts)]
     for cubes in results:
         for o, m, n, cube in cubes:
-            out[o, :, m, n, :] = cube
+            out[o, :, m, n, :] += cube
     return out[0] if weights is None else (out[0], out[1])
+
+
+def _still(c: _Channel) -> np.ndarray:
+    r"""``[P]`` bool: the contributions of channel ``c`` whose phase is :math:`\Phi_0 + A_pk'` alone (no
+    Doppler phase step :math:`B_p`, no residual, nothing dropped): a still target seen by a radar at rest
+    (:math:`\nu = 0` zeroes :math:`B, C, K_u, K_l` of :mod:`.phase`), the same beat in every chirp."""
+    still = c.y == 0.0
+    for r in c.residual:
+        still &= r == 0.0
+    if c.dropped is not None:
+        still &= c.dropped == 0.0
+    return still
+
+
+def _still_cubes(group, still, rows: int, dtype, real, scale, tol: float, upsampfac: float, grid: _Grid) -> list:
+    r"""The cubes ``[(o, m, n, [L, N_s])]`` of the still contributions (:func:`_still`) of the channels of
+    ``group``: one 1-D type-3 transform from :math:`x_p = 2\pi A_p` to the :math:`N_s` sample indices
+    :math:`k'`, the same row in every chirp, with ``rows`` strength vectors per channel (the sum and, for
+    phase noise, the weighted sum: the residual is zero, so the constant term is exact).
+
+    Why it is as accurate as the 2-D sum it takes them out of: a still contribution's phase does not
+    depend on the chirp, so :math:`e^{jy_pY} = 1` on every target of the 2-D transform and its value at
+    :math:`(l', k')` is this transform's at :math:`k'`. The 1-D transform runs at the 2-D plan's tolerance
+    and precision, whose error is the spreading kernel's truncation in each dimension (finufft), so in one
+    dimension it is at most the 2-D transform's; the bound of :mod:`.accuracy`, linear in each channel's
+    strength sum, then holds for the still and the moving parts together. The cost per source drops from
+    :math:`w^2` kernel evaluations to :math:`w`, the targets from :math:`LN_s` to :math:`N_s`: a room's
+    static block and the static samples a moving body blocks in a frame are such contributions."""
+    if not any(s.any() for s in still):
+        return []
+    num_chirps = grid.basis[0].shape[0]
+    chans = [(c.select(s), c) for c, s in zip(group, still) if s.any()]
+    offsets = np.concatenate([[0], np.cumsum([part.x.size for part, _ in chans])])
+    vectors = np.zeros((len(chans) * rows, offsets[-1] + len(ANCHORS)), dtype=dtype)
+    for j, (part, _) in enumerate(chans):
+        strength = part.strength(dtype)
+        strength *= real(scale)
+        vectors[j * rows, offsets[j]:offsets[j + 1]] = strength
+        if rows > 1:
+            vectors[j * rows + 1, offsets[j]:offsets[j + 1]] = strength * part.weight.astype(real)
+    plan = finufft.Plan(3, 1, n_trans=vectors.shape[0], eps=tol, isign=1, dtype=np.dtype(dtype).name, nthreads=1,
+                        upsampfac=upsampfac, showwarn=0)
+    plan.setpts(np.concatenate([part.x for part, _ in chans] + [ANCHORS[:, 0]]).astype(real), None, None,
+                grid.k.astype(real))
+    values = plan.execute(vectors if vectors.shape[0] > 1 else vectors[0])
+    values = np.reshape(values, (len(chans), rows, grid.k.size))
+    return [(o, c.m, c.n, np.broadcast_to(values[j, o], (num_chirps, grid.k.size)))
+            for j, (_, c) in enumerate(chans) for o in range(rows)]
 
 
 __all__ = ["BLOCK_SWEEP_PHASE", "BLOCK_TAYLOR_ORDER", "CHANNELS_PER_PLAN", "TIGHT_BLOCK_SWEEP_PHASE", "SHARED_PLAN_MAX_SOURCES", "MAX_ORDER", "NUFFT_TOL", "TAYLOR_TOL",
