@@ -33,6 +33,7 @@ left out): ``|dP| max`` (dB), cells that differ, and the cube error power relati
 
     python benchmarks/frame_cost.py --tree-a /tmp/treeA [--frames 60] [--repeats 2] [--scene DIR]
     python benchmarks/frame_cost.py --tree-a /tmp/treeA --sequential 12    # per-stage CPU, no overlap
+    python benchmarks/frame_cost.py --tree-a /tmp/treeA --item ITEM_DIR --sequential 12   # a data-set item
 
 Measured
 --------
@@ -368,6 +369,8 @@ def main(argv=None) -> int:
     p.add_argument("--frames", type=int, default=60)
     p.add_argument("--repeats", type=int, default=2, help="A/B pairs, alternated")
     p.add_argument("--scene", default=None, help="existing jump scene (default: build one under --out)")
+    p.add_argument("--item", default=None, help="a data-set item folder instead (its scene/ and the radar of its "
+                   "item.json, receiver draws included): e.g. a RadHAR item of validation/sim_to_real_radhar.py")
     p.add_argument("--out", default="out/bench_frame_cost")
     p.add_argument("--cfg", default=str(RADHAR_CFG), help="TI .cfg of the radar (processing lines left out)")
     p.add_argument("--method-a", type=lambda s: circle_walk.json_dict(s, "--method-a"), default={})
@@ -383,6 +386,16 @@ def main(argv=None) -> int:
         return 0
     out = Path(args.out).resolve()
     out.mkdir(parents=True, exist_ok=True)
+    item_radar = None
+    if args.item:
+        if args.scene:
+            p.error("--item and --scene: give one")
+        record = Path(args.item) / "item.json"
+        try:
+            item_radar = json.loads(record.read_text())["radar"]
+        except (OSError, ValueError, KeyError) as exc:
+            p.error(f"--item {args.item}: no readable item.json with a radar ({exc})")
+        args.scene = str(Path(args.item) / "scene")
     if args.scene:
         scene = Path(args.scene)
         if not (scene / "animation.json").is_file():
@@ -396,6 +409,9 @@ def main(argv=None) -> int:
     if not cfg.is_file():
         p.error(f"--cfg {cfg}: no such file")
     radar = radar_copy(cfg, out / "radar_rf.cfg")
+    if item_radar is not None:
+        radar = out / "radar_item.json"
+        radar.write_text(json.dumps(item_radar))
     trees = circle_walk.tree_environments(p, args)
     methods = {"A": args.method_a, "B": args.method_b}
     if args.sequential:
