@@ -386,7 +386,10 @@ class StaticPO:
     ``[P, 3]``, the index of its next-bounce sample (``-1``: none) and the length to it (``inf``:
     none); the segments a frame re-checks, fixed per pose; ``cells``: per bounce the merge cell of every
     kept sample and the merged cells ``(tau, doppler, labels)`` (None without merging);
-    ``echoes``: the merged static PO echoes of all bounces (None when empty).
+    ``echoes``: the merged static PO echoes of all bounces (None when empty); ``unmerged``: per bounce
+    without merging, views ``(a, tau, doppler, labels)`` of the static block's contributions of its kept
+    samples (:meth:`share`), from which a frame takes those of the samples a moving object blocks
+    instead of computing them again (the same kernel on the same samples: the same values).
     """
 
     renders: list
@@ -396,6 +399,7 @@ class StaticPO:
     cells: list
     echoes: object
     index: dict = field(default_factory=dict)
+    unmerged: dict = field(default_factory=dict)
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
@@ -468,8 +472,10 @@ class StaticPO:
         for d, (kept, cells) in enumerate(zip(self.keep, self.cells)):
             if not np.any(kept):
                 continue
-            if cells is None:
-                start += int(kept.sum())
+            if cells is None:   # unmerged: the block holds every kept sample's own contributions, in order
+                g = slice(start, start + int(kept.sum()))
+                self.unmerged[d] = (block.a[..., g], block.tau[..., g], block.doppler[..., g], row[g])
+                start = g.stop
                 continue
             cell, tau, _, _ = cells
             g = slice(start, start + tau.shape[2])
@@ -541,9 +547,14 @@ class StaticPO:
             own.extend(chain[d:d + 1] + nxt)
             frontier = nxt
         out = []
-        for b, gone, kept, cells in zip(self.renders, removed, self.keep, self.cells):
+        for d, (b, gone, kept, cells) in enumerate(zip(self.renders, removed, self.keep, self.cells)):
             take = gone & kept
             if not np.any(take):
+                continue
+            if cells is None and d in self.unmerged:   # the blocked samples' own contributions, from the block
+                rows = (np.cumsum(kept) - 1)[take]
+                a, tau, doppler, labels = self.unmerged[d]
+                out.append(Echoes(-a[..., rows], tau[..., rows], doppler[..., rows], labels[rows]))
                 continue
             a, tau, doppler, labels = contributions(b.select(take))
             if cells is None:
