@@ -70,7 +70,14 @@ finufft's own threading on these small transforms (NOTES section 4). An upsampli
 faster transforms at the same error on the walk-77ghz grid (used at tolerances >= 1e-6; below,
 finufft chooses, as before).
 
-Motion within the CPI (issue 24). A Doppler rate :math:`\dot f_D` sweeps a contribution's Doppler
+Still contributions. With :math:`\nu = 0` and no Doppler rate (a static object seen by a radar at rest:
+a room's static block, the static samples a moving body blocks in a frame) :math:`B, C, K_u, K_l` of
+:mod:`.phase` vanish and the phase is :math:`\Phi_0 + A_pk'`: the same beat in every chirp. Those
+contributions of a channel go through one 1-D type-3 transform to the :math:`N_s` sample indices
+(:func:`_still_cubes`), at the plan's tolerance and precision, instead of the 2-D one: :math:`w` kernel
+evaluations per source instead of :math:`w^2`.
+
+Motion within the CPI. A Doppler rate :math:`\dot f_D` sweeps a contribution's Doppler
 across the CPI: its phase gains :math:`K_s w'^2(1 + \varepsilon_1 k')` with
 :math:`w' = l' + k'/(T_bF_s)` the time in TDM blocks and :math:`K_s = -\dot f_D(F - \mu\tau)T_b^2/(2f_c)`
 (:mod:`.phase`), :math:`\pi\dot f_D t^2` over the CPI: a few radians for a walking torso, tens for a
