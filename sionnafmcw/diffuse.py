@@ -16,7 +16,7 @@ phasor whose *power* is the sample's Lambertian power. So every sample is a scat
 * **uniform in** :math:`[0, 2\pi)` **and independent between cells**: neighbours add in power,
   :math:`E|\sum_i a_i e^{j\phi_i}e^{-jk L_i}|^2 = \sum_i|a_i|^2` whatever the sample count, while
   deterministic phases add the neighbours coherently and the map power grows with the sampling
-  density (6 dB per 4x samples on a plate facing the radar; issue 11).
+  density (6 dB per 4x samples on a plate facing the radar).
 
 The barycentric position is quantised into ``cells_per_edge`` :math:`Q` steps per triangle edge
 (:func:`cells_per_edge`: edge length / cell size, cell size :math:`\lambda/4` by default), cell
@@ -94,7 +94,7 @@ def scatterer_phases(objects, triangle, barycentric, cells) -> np.ndarray:
 def shared_cells(samples: SurfaceSamples, cells) -> int:
     """How many samples share their (object, triangle, cell) with another sample.
 
-    Such samples get the same phase and add coherently (the growth of issue 11); it must be 0
+    Such samples get the same phase and add coherently (growing with the sample count); it must be 0
     (``cells`` fine enough for the sample spacing). A cheap check for the engines (one ``np.unique``).
     """
     objects = samples.labels if samples.labels is not None else samples.object_id

@@ -9,14 +9,14 @@ contribution :math:`p` (a propagation path, or a pixel), at the start of the CPI
 * ``doppler[m, n, p]``: Doppler shift (Hz), positive for an approaching reflector, so that the
   delay evolves as :math:`\tau(t) = \tau_0 - (f_D/f_c)(t - t_n)`;
 * ``doppler_rate[m, n, p]`` (optional, keyword): the Doppler shift's rate of change
-  :math:`\dot f_D` (Hz/s) at the CPI start, for motion within the CPI (issue 24): the delay then
+  :math:`\dot f_D` (Hz/s) at the CPI start, for motion within the CPI: the delay then
   follows the second-order model
 
   .. math:: \tau(t) = \tau_0 - \frac{f_D}{f_c}(t - t_n) - \frac{\dot f_D}{f_c}\frac{(t - t_n)^2}{2},
 
   i.e. :math:`f_D = -\dot L/\lambda` and :math:`\dot f_D = -\ddot L/\lambda` for a contribution
   whose path length is :math:`L(t)` (:mod:`sionnafmcw.kinematics`). None (default): every rate
-  zero, the CPI frozen at the frame's velocities (the model before issue 24).
+  zero, the CPI frozen at the frame's velocities (the model without motion within the CPI).
 
 Tx is in physical element order. Zero-gain entries are padding (Sionna pads per-link path
 lists to a common length).

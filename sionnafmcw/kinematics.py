@@ -1,7 +1,7 @@
 r"""Kinematics of a path: range rates and range accelerations, the moving radar's elements, mirror images.
 
 A contribution's path length :math:`L(t)` (Tx element, interaction points, Rx element) sets its
-Doppler shift and, for motion within the CPI (issue 24), its Doppler rate
+Doppler shift and, for motion within the CPI, its Doppler rate
 (:class:`~sionnafmcw.echoes.Echoes`):
 
 .. math:: f_D = -\frac{\dot L}{\lambda}, \qquad \dot f_D = -\frac{\ddot L}{\lambda}.

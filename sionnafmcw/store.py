@@ -57,7 +57,7 @@ Attributes
     ``{"position": [x, y, z], "orientation": [yaw, pitch, roll]}`` (m, rad): the radar frame in the
     world (:mod:`sionnafmcw.geometry`) in frame 0, with its ``velocity`` (m/s) and
     ``angular_velocity`` (rad/s) where non-zero. The pose of every frame is in the ``radar_*`` arrays
-    (issue 24; stores written before have only this attribute, and :meth:`Run.pose_at` falls back to it).
+    (older stores have only this attribute, and :meth:`Run.pose_at` falls back to it).
 ``radar_track``
     None for a radar that keeps one pose in every frame, else ``{"frames", "sha256"}``, the digest of
     every frame's pose and motion (a moving radar; a resume with another track is refused).
@@ -137,7 +137,7 @@ def _json_safe(value):
 #: Attributes every complete store has (besides ``format``); a directory without them was cut off
 #: while being created by a version that did not create stores atomically.
 REQUIRED_ATTRS = ("radar", "radar_pose", "engine", "seed", "noise")
-#: The radar's pose per frame (issue 24): array name -> the :class:`~sionnafmcw.animation.RadarPose` field.
+#: The radar's pose per frame: array name -> the :class:`~sionnafmcw.animation.RadarPose` field.
 POSE_ARRAYS = {"radar_position": "position", "radar_orientation": "orientation", "radar_velocity": "velocity",
                "radar_angular_velocity": "angular_velocity"}
 #: The arrays of a frame, in the order :meth:`RunStore.write_frame` writes them (``frame_done`` last).
@@ -355,7 +355,7 @@ class RunStore:
         """Write every array of frame ``index``, then mark it done (last). ``joint_positions`` [person,
         joint, 3] and ``activities`` [person] for a store with the per-person arrays (the person count is
         their number). ``radar_pose``: the frame's :class:`~sionnafmcw.animation.RadarPose` (the
-        ``radar_*`` arrays; a store created before issue 24 has none and keeps its one ``radar_pose``
+        ``radar_*`` arrays; an older store has none and keeps its one ``radar_pose``
         attribute).
 
         Signals are held during the writes (:func:`sionnafmcw.interrupts.deferred`): Ctrl-C never
@@ -570,7 +570,7 @@ class Run:
     def pose_at(self, frame: int):
         """The radar's :class:`~sionnafmcw.animation.RadarPose` (position, orientation, velocity, angular
         velocity) in ``frame``: the per-frame ``radar_*`` arrays, or the ``radar_pose`` attribute for a
-        store that has none (written before issue 24) or a frame not written yet."""
+        store that has none (an older store) or a frame not written yet."""
         from .animation import RadarPose
 
         frame = int(frame)

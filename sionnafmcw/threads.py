@@ -36,7 +36,7 @@ with ``static_scene=False`` (the whole room traced and rendered every frame;
 ``--engine-options '{"static_scene": false}' --frames 8 --settings blas1 default``): 1-3 % slower
 with one worker, 10 % less CPU; pass ``threads=cores + 1`` where the wall time of such runs is
 what counts. The synthesis stage (``--settings arena1 synthesis2 nocatchup``, after the engine's
-PO geometry kernel of issue 22 made the engine 0.22 s a frame alone): its plans on all threads
+PO geometry kernel made the engine 0.22 s a frame alone): its plans on all threads
 throughout (``synthesis2``) 0.7 % slower than on ``threads // 2`` with the catching up; on
 ``threads // 2`` without the catching up (``nocatchup``) 3.6-4.1 % slower. ``threads`` defaults to the
 cores this process may run on (:func:`available_cores`);

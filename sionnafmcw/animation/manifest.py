@@ -176,7 +176,7 @@ def _radar_pose(value, where: str, name: str, per_frame: bool) -> RadarPose:
     if not isinstance(value, dict):
         raise AnimationError(f"{where}: field '{name}' must be an object with position and orientation")
     unknown = sorted(set(value) - set(RADAR_FIELDS))
-    if unknown and per_frame:   # (the top-level pose ignored unknown fields before issue 24, and still does)
+    if unknown and per_frame:   # (the top-level pose ignores unknown fields)
         raise AnimationError(f"{where}: field '{name}' has unknown field(s) {', '.join(unknown)}; known: "
                              f"{', '.join(RADAR_FIELDS)}")
     required = ("position", "orientation", "velocity") if per_frame else ("position",)

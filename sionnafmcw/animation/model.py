@@ -38,7 +38,7 @@ def _zeros3():
 @dataclass(frozen=True)
 class RadarPose:
     r"""Radar position (m, world) and orientation ``[yaw, pitch, roll]`` (rad, Sionna's convention) at a
-    frame's CPI start, and the radar frame's motion there (issue 24): ``velocity`` (m/s) of the radar
+    frame's CPI start, and the radar frame's motion there: ``velocity`` (m/s) of the radar
     origin, ``angular_velocity`` :math:`\boldsymbol\omega` (rad/s, world,
     :math:`\dot{\mathbf R} = [\boldsymbol\omega]_\times\mathbf R`), ``acceleration`` (m/s^2) and
     ``angular_acceleration`` (rad/s^2); all zero by default (a radar at rest). An element at
@@ -292,7 +292,7 @@ class Animation:
         """Manifest angular velocity (rad/s, world) of ``name`` in a frame (zeros when not given)."""
         return np.asarray(self.frame(frame_index).angular_velocities.get(name, np.zeros(3)), dtype=float)
 
-    # ------------------------------------------------------------------ accelerations (issue 24)
+    # ------------------------------------------------------------------ accelerations
     def _neighbours(self, frame_index: int) -> tuple[int, int]:
         """The frames of the central difference at ``frame_index`` (one-sided at the ends; the frame
         itself twice for a single-frame animation)."""

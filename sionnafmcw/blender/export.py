@@ -150,7 +150,7 @@ Radar pose
 The radar is the object named ``radar`` (``--radar NAME``), else the scene camera; its pose at
 the first exported frame is the manifest's ``radar``. When it moves during the exported frames
 (any change of its world matrix beyond :data:`RADAR_MOTION_TOLERANCE`), every frame also gets its
-pose and motion, a radar track (``frames[i].radar``, issue 24): position, orientation, the velocity
+pose and motion, a radar track (``frames[i].radar``): position, orientation, the velocity
 of its origin and the angular velocity of its axes from the same central differences at
 :math:`\pm h` frames as the objects' (:func:`radar_motion`). ``position`` is the object's world origin. ``orientation`` =
 (yaw, pitch, roll) (rad) with Sionna's :math:`\mathbf R = \mathbf R_z(\mathrm{yaw})\,

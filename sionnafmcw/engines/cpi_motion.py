@@ -1,5 +1,5 @@
 r"""Motion within the CPI and the moving radar, for the engines: the frame's kinematics and what it adds
-to the echoes (issue 24).
+to the echoes.
 
 Two effects, each derived in :mod:`sionnafmcw.kinematics`:
 
@@ -8,7 +8,7 @@ Two effects, each derived in :mod:`sionnafmcw.kinematics`:
   :math:`(\dot{\mathbf t}_m\cdot\hat{\mathbf k}_m - \dot{\mathbf r}_n\cdot\hat{\mathbf k}'_n)/\lambda`
   (:func:`~sionnafmcw.kinematics.ego_doppler`), static clutter included, so every Doppler is relative;
 * **motion within the CPI** (the engines' option ``cpi_motion="quadratic"``; ``"frozen"`` keeps
-  the CPI at the frame's velocities, the model before issue 24): every contribution gets its
+  the CPI at the frame's velocities, the model without motion within the CPI): every contribution gets its
   Doppler rate :math:`\dot f_D = -\ddot L/\lambda` from the accelerations of its interaction
   points and of the radar (:class:`~sionnafmcw.echoes.Echoes`), and the synthesizer applies the
   quadratic delay across the CPI's chirps.

@@ -16,7 +16,7 @@ traced paths is the option ``array_model``:
   fewer rays than ``"per-element"`` and leaves :math:`MN` times fewer paths to adapt.
 * ``"per-element"``: Sionna's ``synthetic_array=False``: every Tx element is a source and every
   Rx element a target. Each Tx element then draws its **own** diffuse scatterers (two elements
-  share 0-2.5 % of their body hits, measured in issue 11) and the Tx-block phases of diffuse
+  share 0-2.5 % of their body hits, as measured) and the Tx-block phases of diffuse
   echoes are scrambled: three speckle looks no radar gets. Kept only to compare with the coherent
   model (``benchmarks/path_engine.py``).
 

@@ -88,7 +88,7 @@ chirp, and a static surface keeps it from frame to frame. Neighbouring pixels th
 (4x pixels move the mean clutter-removed map power by < 0.5 dB, ``tests/test_pixel_po.py``).
 ``diffuse_phase="deterministic"`` is the paper's eq. (2) as published: real :math:`|a|`, so
 neighbours add coherently and the map power grows with the pixel count (about 6 dB per 4x
-pixels on a surface facing the radar, issue 11).
+pixels on a surface facing the radar).
 
 Array phase
 -----------

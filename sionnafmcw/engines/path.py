@@ -1,6 +1,6 @@
 r"""Path engine: per-element echoes of an animation frame: PO direct echo, Sionna's multipath, random-phase diffuse.
 
-The echo of a frame has three parts (issue 11; each can be switched off for comparisons):
+The echo of a frame has three parts (each can be switched off for comparisons):
 
 * **the coherent (specular) share of every reflection, by physical optics** (``physical_optics=True``):
   the lit surface is rendered from the array's phase centre (:mod:`sionnafmcw.engines.po_render`,

@@ -33,7 +33,7 @@ engine (``tests/test_pixel_po.py``): metal plates of 0.1 and 0.2 m facing the ra
 within 0.03 dB of the near-field Fresnel PO, a plate split in 2 or 128 triangles the same echo,
 a faceted sphere :math:`\pi r^2` within 1 dB.
 
-Why PO is the default (decision, issue 11): the Lambertian pixels alone miss the coherent share,
+Why PO is the default (decision): the Lambertian pixels alone miss the coherent share,
 which is the dominant echo of every smooth surface facing the radar -- a 0.1 m metal plate at
 5 m is 18.7 dBsm by PO and invisible (:math:`S = 0`) or :math:`4AS^2` = -14 dBsm to them, a
 torso facet normal to the line of sight likewise -- and PO, unlike the path engine's
@@ -56,7 +56,7 @@ Measured through the engine
 0.03 dB of the near-field Fresnel PO, a plate split in 2 or 128 triangles the same echo, a
 faceted sphere :math:`\pi r^2` within 1 dB.
 
-Why PO is the default (decision, issue 11): the Lambertian pixels alone miss the coherent share,
+Why PO is the default (decision): the Lambertian pixels alone miss the coherent share,
 which is the dominant echo of every smooth surface facing the radar -- a 0.1 m metal plate at
 5 m is 18.7 dBsm by PO and invisible (:math:`S = 0`) or :math:`4AS^2` = -14 dBsm to them, a
 torso facet normal to the line of sight likewise -- and PO, unlike the path engine's

@@ -47,7 +47,7 @@ for its own error, so the two add up to at most :math:`E_{max}` per sample, 20 d
 noise (:mod:`sionnafmcw.synthesis`). Measured on a circle-walk frame (``benchmarks/po_merge.py``):
 the bound is 2-10 times the merge error actually measured against the unmerged cube.
 
-Doppler rates (motion within the CPI, issue 24). Contributions with Doppler rates :math:`\dot f_i`
+Doppler rates (motion within the CPI). Contributions with Doppler rates :math:`\dot f_i`
 are also keyed on the rate, in cells of :math:`\epsilon/T_{CPI}^2` (the rate that turns the phase
 :math:`\pi\dot f t^2` by :math:`\pi\epsilon` over the CPI), and a cell takes the mean rate
 :math:`\bar{\dot f}`; the phase lost gains the term :math:`\pi(\dot f_i - \bar{\dot f})(s_l + t_k)^2`,

@@ -224,7 +224,7 @@ class Placement:
     """Where a surface is in the current frame: ``rotation [3, 3]`` and ``translation [3]`` (own frame
     -> world), and its velocity field: ``motion`` (:class:`~sionnafmcw.animation.rigid.RigidMotion`:
     centroid velocity and angular velocity) or ``vertex_velocity [V, 3]`` (deforming meshes, world)
-    or the uniform ``velocity [3]``. For motion within the CPI (issue 24; None otherwise): the
+    or the uniform ``velocity [3]``. For motion within the CPI (None otherwise): the
     acceleration field, ``vertex_acceleration [V, 3]`` (world, per vertex of the surface) or the
     uniform ``acceleration [3]``, and the rotation's ``angular_velocity`` and
     ``angular_acceleration`` (a mirror's turn, :mod:`~sionnafmcw.engines.cpi_motion`)."""

@@ -5,7 +5,7 @@ so a target at range :math:`R` and azimuth :math:`\phi` (rad, positive towards +
 radar's horizontal plane is at ``(R cos(phi), R sin(phi), height)``. Everything moves along the
 line of sight, so the radial velocity of a target is its speed (positive receding).
 
-A moving radar (issue 24): ``moving_plate`` and ``corner_reflectors`` take ``radar_velocity`` (m/s,
+A moving radar: ``moving_plate`` and ``corner_reflectors`` take ``radar_velocity`` (m/s,
 world), the radar then moving at that constant velocity from its start pose (a radar track in the
 manifest, :func:`~.writer.straight_track`); ``car_park`` drives the radar down a lane between two
 rows of corner reflectors (pillars), looking ahead.

@@ -9,7 +9,7 @@ r"""TDM-MIMO FMCW beat synthesis: :class:`~sionnafmcw.Echoes` -> IF cube.
     \qquad \tau_{mnp} = \tau_{0,mnp} - \frac{f_{D,mnp}}{f_c}\,(s_{lm} + t_k)
 
 (plus :math:`-\tfrac12(\dot f_{D,mnp}/f_c)(s_{lm} + t_k)^2` for contributions with a Doppler rate:
-motion within the CPI, issue 24, :class:`~sionnafmcw.Echoes`), with the exact TDM chirp start
+motion within the CPI, :class:`~sionnafmcw.Echoes`), with the exact TDM chirp start
 :math:`s_{lm} = (lM + q_m)T_c`, fast time
 :math:`t_k = t_{adc} + k/F_s`, carrier phase, beat frequency, Doppler, range migration inside
 the CPI, radar-equation power :math:`P_r = P_t|a|^2` and thermal noise :math:`w`

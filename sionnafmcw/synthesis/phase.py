@@ -37,7 +37,7 @@ from chirp to chirp: about one cycle over a 27 ms CPI at 4.5 m/s, never negligib
 :math:`K_u` the Doppler-induced chirp-rate change and :math:`K_l` the second-order range
 migration. Nothing is dropped: the polynomial is exact, degree 2 in :math:`(l, k')`.
 
-Motion within the CPI (issue 24). With a Doppler rate :math:`\dot f_D` the delay is
+Motion within the CPI. With a Doppler rate :math:`\dot f_D` the delay is
 :math:`\tau(t) = \tau_0 - \nu(t - t_n) - \beta(t - t_n)^2/2`, :math:`\beta = \dot f_D/f_c`
 (:class:`~sionnafmcw.echoes.Echoes`). With :math:`w = T_b l + u` the time from the centre of the
 first ADC window of the Tx, :math:`t_a = qT_c + t_{mid}`, :math:`\nu_a = \nu + \beta t_a` the

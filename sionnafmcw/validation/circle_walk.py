@@ -18,14 +18,14 @@ simulated signal carries. A real torso accelerates during the 27 ms CPI (centrip
 = 6.8 m/s^2 on the circle, and the gait's own oscillation), so the metrics also give
 ``e_velo_cpi_centre`` against the truth at the CPI centre (:meth:`sionnafmcw.store.Run.truth_at_cpi_centre`).
 ``--cpi-motion quadratic`` lets every contribution's Doppler sweep across the CPI with its
-acceleration (issue 24, ``docs/guide/motion.md``); the estimate then follows the body's mean velocity
+acceleration (``docs/guide/motion.md``); the estimate then follows the body's mean velocity
 over the CPI.
 
 Pass marks: :math:`e_{velo} \le 1.3` m/s (the paper's figure) for the path engine and
-:math:`\le 0.3` m/s (issue 5) for the pixel engine in the paper's model. The Doppler bin of
-``walk-77ghz`` is 7.1 cm/s. Issue 5 aimed at 0.15 m/s for the path engine, a figure its former
+:math:`\le 0.3` m/s for the pixel engine in the paper's model. The Doppler bin of
+``walk-77ghz`` is 7.1 cm/s. The target was 0.15 m/s for the path engine, a figure its former
 diffuse-only body echo reached (0.119 m/s at 1e6 rays). With the physical-optics direct echo
-(issue 11) the strongest cell is, in part of the CPIs, a leg rather than the torso: a leg seen
+the strongest cell is, in part of the CPIs, a leg rather than the torso: a leg seen
 broadside is a singly curved surface whose specular return (a cylinder's
 :math:`2\pi a L^2/\lambda`) exceeds the doubly curved torso's (:math:`\pi\rho_1\rho_2`), and a
 stance leg moves at nearly zero radial velocity. Measured on the 100 frames with the engine's
@@ -36,7 +36,7 @@ so 0.15 m/s is not a figure a physically right echo gives it; the pass mark is t
 
 The pixel engine runs the paper's own model, eq. (2) (``model="lambertian"``, :data:`PIXEL_DEFAULTS`;
 ``--pixel-model physical-optics`` for the PO mode): this experiment reproduces the paper, and the
-pixel engine keeps that mode for it (issue 11). Its diffuse pixels carry the default random phase
+pixel engine keeps that mode for it. Its diffuse pixels carry the default random phase
 fixed to each scatterer. The PO mode's echo of the room and body has 0.5-0.7 million contributions
 per element pair after merging (about 15 s per frame on two cores against 0.6 s), and its
 Doppler-time estimate is that of the path engine's PO direct echo, which the path engine already
@@ -65,7 +65,7 @@ from ..radar import RadarConfig
 from .common import build_scene, run_engine, write_metrics
 
 #: e_velo pass marks (m/s): the paper's own figure for the path engine (see the module docstring),
-#: issue 5's 0.3 m/s for the pixel engine in the paper's model
+#: the 0.3 m/s target for the pixel engine in the paper's model
 TARGETS = {"path": 1.3, "pixel": 0.30}
 TRUTH_OBJECT = "torso"
 #: Path engine settings of this experiment: none, the engine's defaults (no private ray count).

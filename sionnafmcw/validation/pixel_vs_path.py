@@ -11,7 +11,7 @@ default); ``--pixel-model lambertian`` compares the paper's diffuse-only eq. (2)
 The metrics name the models (``models``). What follows about the diffuse-only model describes
 the latter comparison.
 
-Scenes (issue 5): ``moving_plate``, ``corner_reflectors`` (moving radially) and ``circle_walk``.
+Scenes: ``moving_plate``, ``corner_reflectors`` (moving radially) and ``circle_walk``.
 The pixel engine models the diffuse (Lambertian) share :math:`S^2` of the reflected power only;
 a smooth surface (:math:`S = 0`, Sionna's and every ITU material's default) is invisible to it,
 and the path engine's mirror echo (which grows like :math:`\pi R^2` for a plate facing the radar)
