@@ -290,9 +290,12 @@ def chain_variants(processing) -> dict:
     pg, cfar = processing.peak_grouping, processing.cfar_range
     out = {"as run": processing}
     if pg is not None:
-        out["peak grouping along range too"] = processing.replace(peak_grouping=dataclasses.replace(pg, in_range=True))
-    out["CFAR threshold +6 dB"] = processing.replace(cfar_range=dataclasses.replace(cfar, threshold=cfar.threshold + 512))
-    out["no second points"] = processing.replace(multi_object=dataclasses.replace(processing.multi_object, enabled=False))
+        out["peak grouping along range too"] = processing.replace(
+            peak_grouping=dataclasses.replace(pg, in_range=True))
+    out["CFAR threshold +6 dB"] = processing.replace(
+        cfar_range=dataclasses.replace(cfar, threshold=cfar.threshold + 512))
+    out["no second points"] = processing.replace(
+        multi_object=dataclasses.replace(processing.multi_object, enabled=False))
     return out
 
 
@@ -396,9 +399,10 @@ def main(argv=None) -> int:
         synthetic = [read_recording(p) for p in files]
         real = []
         if args.real is not None:
-            real_files = sorted((args.real / args.activity).glob("*.npz")) + sorted((args.real / args.activity).glob("*.txt"))
+            real_folder = args.real / args.activity
+            real_files = sorted(real_folder.glob("*.npz")) + sorted(real_folder.glob("*.txt"))
             if not real_files:
-                raise FileNotFoundError(f"{args.real / args.activity}: no recordings; give --real RadHAR's split folder")
+                raise FileNotFoundError(f"{real_folder}: no recordings; give --real RadHAR's split folder")
             real = [read_recording(p) for p in real_files]
         grid = doppler_grid(synthetic + real)
         metrics: dict = {"activity": args.activity, "doppler_step": grid[0]}
