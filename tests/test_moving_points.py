@@ -138,3 +138,65 @@ def test_the_command_line_names_a_missing_export(tmp_path, capsys):
     assert main(["--synthetic", str(tmp_path)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: ") and str(tmp_path / "walk") in err and "\n" not in err
+
+
+# ------------------------------------------------------------------ which echoes make the moving cells
+def test_body_regions_of_segment_names():
+    from sionnafmcw.validation.moving_cells import ROOM, body_region
+
+    assert [body_region(n) for n in ("left_upper_arm", "right_lower_arm", "left_foot", "right_upper_leg", "torso",
+                                     "pelvis", "head", ROOM)] == ["arms", "arms", "legs", "legs", "trunk and head",
+                                                                  "trunk and head", "trunk and head", ROOM]
+
+
+@pytest.mark.skipif(not RADHAR_CFG.exists(), reason="RadHAR's .cfg is not on this machine")
+def test_cell_spectrum_is_the_chains_before_rounding():
+    """Two point targets through the chain's rounded range FFT and Doppler FFT, and through cell_spectrum:
+    the same spectrum to the range FFT's rounding (half an int16 step per sample, far below the peaks)."""
+    from sionnafmcw.echoes import Echoes
+    from sionnafmcw.synthesis import synthesize
+    from sionnafmcw.ti.cfg import read_ti_cfg
+    from sionnafmcw.ti.oob import doppler_fft, range_spectra
+    from sionnafmcw.validation.moving_cells import cell_spectrum
+
+    radar = read_ti_cfg(RADHAR_CFG.read_text())
+    echoes = Echoes.point_targets(radar, ranges=[1.5, 2.2], radial_velocities=[0.0, 0.6], azimuths=[0.1, -0.3],
+                                  rcs=[0.3, 0.1])
+    cube = synthesize(echoes, radar, rng=3)
+    exact = cell_spectrum(cube, radar)
+    chain = doppler_fft(range_spectra(cube, radar).reshape(radar.num_chirps, radar.num_tx * radar.num_rx, -1), 2,
+                        rounded=False)
+    assert exact.shape == chain.shape == (16, 12, 256)
+    assert np.abs(exact - chain).max() < 1.0          # int16 steps: the range FFT's rounding, through the window
+    assert np.abs(chain).max() > 1e3
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not RADHAR_CFG.exists(), reason="RadHAR's .cfg is not on this machine")
+def test_moving_cell_sources_of_a_simulated_walker(tmp_path):
+    """A walker without a room, approaching at 1 m/s (1.6 Doppler bins), simulated for three frames: the engine
+    re-run reproduces every stored cube, every moving point's source is one of the walker's segments (no
+    room), the region shares and the body's power shares are shares; a different scene is refused."""
+    from sionnafmcw import scenes, simulate
+    from sionnafmcw.validation.moving_cells import MovingCellsError, REGIONS, moving_cell_sources
+
+    common = dict(activity="walk", num_frames=3, body_mesh_edge=0.06, room=False, walk_direction="toward",
+                  walk_speed=1.0, walk_path="straight", heading_offset=0.0, person_azimuth=0.0)
+    scene = scenes.build("radhar", tmp_path / "scene", person_range=1.6, **common)
+    store = tmp_path / "run.zarr"
+    simulate(scene, RADHAR_CFG, out=store, progress=False, seed=7, threads=1,
+             engine_options={"samples_per_src": 20000})
+    result = moving_cell_sources(store, [0, 1, 2])
+    assert np.all(result["frames"]["reproduction_error"] <= 1e-3)
+    summary = result["summary"]
+    assert summary["moving_points"] >= 1
+    segments = {"torso", "pelvis", "head", "left_upper_arm", "left_lower_arm", "right_upper_arm", "right_lower_arm",
+                "left_upper_leg", "left_lower_leg", "left_foot", "right_upper_leg", "right_lower_leg", "right_foot"}
+    assert set(result["points"]["source"].tolist()) <= segments
+    assert summary["region"]["room"] == 0.0
+    assert sum(summary["region"][r] for r in REGIONS) == pytest.approx(1.0)
+    assert sum(summary["body_power"].values()) == pytest.approx(1.0)
+    assert np.all((result["points"]["share"] > 0) & (result["points"]["share"] <= 1))
+    other = scenes.build("radhar", tmp_path / "other", person_range=2.0, **common)
+    with pytest.raises(MovingCellsError, match="frame 0 re-run differs from the stored cube"):
+        moving_cell_sources(store, [0], scene=other)

@@ -2,6 +2,7 @@
 TI chain with one part changed (see sionnafmcw.validation.moving_points).
 
     python validation/moving_points.py --synthetic EXPORT [--items ITEMS] [--real DIR] [--activity walk] [--chain]
+        [--sources FRAMES [--source-items IDS]]
 """
 
 import sys

@@ -368,6 +368,55 @@ def chain_table(result: dict) -> str:
     return "\n".join(lines)
 
 
+def source_attribution(pairs, frames, grid) -> dict:
+    """:func:`~sionnafmcw.validation.moving_cells.moving_cell_sources` of ``frames`` of each
+    ``(recording, store)`` pooled, with every moving point also placed against its trunk's Doppler bin:
+    ``{"all": {region: share}, "at_trunk_bin": {...}, "off_trunk_bin": {...}, "body_power": {...},
+    "points": n, "items": [...], "frames": [...], "reproduction_error_max": e, "median_share": m}``."""
+    from .moving_cells import REGIONS, moving_cell_sources
+
+    regions, at_trunk, body_power, shares, errors = [], [], [], [], []
+    for recording, store in pairs:
+        result = moving_cell_sources(store, frames)
+        truth = person_truth(store)
+        trunk_bin = np.rint(np.asarray(truth.trunk_radial_velocity) / grid[0]).astype(np.int64)
+        pts = result["points"]
+        regions += pts["region"].tolist()
+        at_trunk += (pts["k"] == trunk_bin[pts["frame"]]).tolist()
+        shares += pts["share"].tolist()
+        body_power.append(result["summary"]["body_power"])
+        errors.append(float(np.max(result["frames"]["reproduction_error"])))
+    regions, at_trunk = np.asarray(regions), np.asarray(at_trunk, bool)
+
+    def split(mask):
+        n = max(int(mask.sum()), 1)
+        return {r: float(np.count_nonzero(regions[mask] == r)) / n for r in REGIONS} | {"points": int(mask.sum())}
+
+    every = np.ones(regions.size, bool)
+    return {"items": [Path(s).parent.name for _, s in pairs], "frames": list(frames), "points": int(regions.size),
+            "all": split(every), "at_trunk_bin": split(at_trunk), "off_trunk_bin": split(~at_trunk),
+            "body_power": {r: float(np.mean([b[r] for b in body_power])) for r in body_power[0]} if body_power else {},
+            "median_share": float(np.median(shares)) if shares else float("nan"),
+            "reproduction_error_max": max(errors) if errors else float("nan")}
+
+
+def sources_table(result: dict) -> str:
+    """Markdown: :func:`source_attribution`."""
+    regions = ("arms", "legs", "trunk and head", "room")
+    lines = ["| moving points | points | " + " | ".join(regions) + " |", "|---|---|" + "---|" * len(regions)]
+    for label, key in (("all", "all"), ("at the trunk's Doppler bin", "at_trunk_bin"),
+                       ("at another bin", "off_trunk_bin")):
+        row = result[key]
+        lines.append(f"| {label} | {row['points']} | " + " | ".join(_fmt(row[r]) for r in regions) + " |")
+    bp = result["body_power"]
+    lines.append("| the body's echo power, share | | " + " | ".join(_fmt(bp.get(r, float('nan'))) for r in regions)
+                 + " |")
+    lines.append(f"\nitems {', '.join(result['items'])}, frames {', '.join(map(str, result['frames']))}; the source's "
+                 f"median share of its cell {_fmt(result['median_share'])}; re-run frames reproduce the stored cubes "
+                 f"to {result['reproduction_error_max']:.1e} (relative)")
+    return "\n".join(lines)
+
+
 def _json(value):
     if isinstance(value, dict):
         return {k: _json(v) for k, v in value.items()}
@@ -387,8 +436,18 @@ def main(argv=None) -> int:
     parser.add_argument("--activity", default="walk", help="the class folder to study (default walk)")
     parser.add_argument("--chain", action="store_true", help="re-run the TI chain on the items' run stores with "
                         "one part changed at a time (attribution, ~3 s a 60-frame item on 2 cores)")
+    parser.add_argument("--sources", help="frames (comma-separated) at which to split the moving cells among the "
+                        "objects whose echoes make them (sionnafmcw.validation.moving_cells: the engine re-run, "
+                        "10-25 s a frame)")
+    parser.add_argument("--source-items", help="the item ids (comma-separated) for --sources (default: all)")
     args = parser.parse_args(argv)
+    try:
+        source_frames = [] if args.sources is None else [int(f) for f in args.sources.split(",")]
+    except ValueError:
+        print(f"error: --sources must be comma-separated frame indices, got {args.sources!r}", file=sys.stderr)
+        return 2
     from ..store import RunStoreError
+    from ..engines.errors import EngineError
     from ..ti.formats.radhar import RadharFormatError, read_recording
 
     try:
@@ -426,7 +485,13 @@ def main(argv=None) -> int:
                 metrics["chain"] = chain
                 print(f"## simulated {args.activity}: the TI chain with one part changed (attribution)\n\n"
                       f"{chain_table(chain)}\n")
-    except (FileNotFoundError, ValueError, RunStoreError, RadharFormatError) as error:
+            if source_frames:
+                chosen = None if args.source_items is None else set(args.source_items.split(","))
+                picked = [(r, s) for r, s in zip(synthetic, stores) if chosen is None or s.parent.name in chosen]
+                sources = source_attribution(picked, source_frames, grid)
+                metrics["sources"] = sources
+                print(f"## simulated {args.activity}: which echoes make the moving cells\n\n{sources_table(sources)}\n")
+    except (FileNotFoundError, ValueError, RunStoreError, RadharFormatError, EngineError) as error:
         print(f"error: {error}", file=sys.stderr)
         return 2
     print(json.dumps(_json(metrics)))
@@ -435,4 +500,5 @@ def main(argv=None) -> int:
 
 __all__ = ["BULK_SPEED_CLASSES", "LOCATIONS", "PersonTruth", "RANGE_CLASSES", "SURFACE_MARGIN", "chain_attribution",
            "chain_table", "chain_variants", "driver_range_step", "main", "moving_point_structure",
-           "moving_points_against_truth", "person_truth", "structure_table", "truth_tables"]
+           "moving_points_against_truth", "person_truth", "source_attribution", "sources_table", "structure_table",
+           "truth_tables"]
