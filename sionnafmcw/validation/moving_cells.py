@@ -161,7 +161,8 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
                 columns["share"].append(cell[source] / total if total > 0 else float("nan"))
             per_frame["frame"].append(f), per_frame["reproduction_error"].append(error)
             per_frame["moving"].append(int(moving.size))
-    points = {key: np.asarray(value) for key, value in columns.items()}
+    dtypes = {"frame": np.int64, "k": np.int64, "range_index": np.int64, "source": str, "region": str, "share": float}
+    points = {key: np.asarray(value, dtypes[key]) for key, value in columns.items()}
     n = max(points["source"].size, 1)
     body = sum(v for r, v in region_power.items() if r != ROOM) or float("nan")
     by_source = Counter(points["source"].tolist())
