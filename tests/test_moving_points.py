@@ -171,7 +171,6 @@ def test_cell_spectrum_is_the_chains_before_rounding():
     assert np.abs(chain).max() > 1e3
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not RADHAR_CFG.exists(), reason="RadHAR's .cfg is not on this machine")
 def test_moving_cell_sources_of_a_simulated_walker(tmp_path):
     """A walker without a room, approaching at 1 m/s (1.6 Doppler bins), simulated for three frames: the engine
