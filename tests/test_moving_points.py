@@ -175,7 +175,8 @@ def test_cell_spectrum_is_the_chains_before_rounding():
 def test_moving_cell_sources_of_a_simulated_walker(tmp_path):
     """A walker without a room, approaching at 1 m/s (1.6 Doppler bins), simulated for three frames: the engine
     re-run reproduces every stored cube, every moving point's source is one of the walker's segments (no
-    room), the region shares and the body's power shares are shares; a different scene is refused."""
+    room), the region shares and the body's power shares are shares, the echoes re-scaled by 0 dB give the
+    run's points and the body 60 dB down none; a different scene is refused."""
     from sionnafmcw import scenes, simulate
     from sionnafmcw.validation.moving_cells import MovingCellsError, REGIONS, moving_cell_sources
 
@@ -185,9 +186,17 @@ def test_moving_cell_sources_of_a_simulated_walker(tmp_path):
     store = tmp_path / "run.zarr"
     simulate(scene, RADHAR_CFG, out=store, progress=False, seed=7, threads=1,
              engine_options={"samples_per_src": 20000})
-    result = moving_cell_sources(store, [0, 1, 2])
+    result = moving_cell_sources(store, [0, 1, 2], gains={"unchanged": {"arms": 0.0},
+                                                          "no body": {"arms": -60, "legs": -60, "trunk and head": -60}})
     assert np.all(result["frames"]["reproduction_error"] <= 1e-3)
     summary = result["summary"]
+    # a 0 dB gain is the run again (one point of the three frames may flip at the 1e-4 reproduction), and a
+    # body 60 dB down leaves no moving point (nothing else moves)
+    variants = summary["variants"]
+    assert variants["unchanged"]["moving_points_per_frame"] == pytest.approx(
+        variants["as run"]["moving_points_per_frame"], abs=1 / 3)
+    assert variants["as run"]["moving_points_per_frame"] >= 1
+    assert variants["no body"]["moving_points_per_frame"] == 0
     assert summary["moving_points"] >= 1
     segments = {"torso", "pelvis", "head", "left_upper_arm", "left_lower_arm", "right_upper_arm", "right_lower_arm",
                 "left_upper_leg", "left_lower_leg", "left_foot", "right_upper_leg", "right_lower_leg", "right_foot"}

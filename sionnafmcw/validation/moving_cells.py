@@ -87,8 +87,16 @@ def _engine_of(run):
     return engine
 
 
+def _frame_counts(points, near_range: float) -> tuple[int, int]:
+    """Moving points beyond ``near_range`` of one frame's :class:`DetectedPoints`, and their distinct Doppler bins."""
+    k = np.asarray(points.doppler_index)
+    moving = (k != 0) & (points.range >= near_range)
+    return int(moving.sum()), int(np.unique(k[moving]).size)
+
+
 def moving_cell_sources(store, frames, scene=None, processing=None, near_range: float = NEAR_RANGE,
-                        threads: int | None = 1, tolerance: float = REPRODUCTION_TOLERANCE) -> dict:
+                        threads: int | None = 1, tolerance: float = REPRODUCTION_TOLERANCE,
+                        gains: dict | None = None) -> dict:
     """The sources of the moving points of ``frames`` of a run store (module docstring).
 
     ``scene``: the animation directory (default: the one the store names); ``processing``: the chain
@@ -97,14 +105,20 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
     ``region``, ``share``), ``frames`` (per frame: ``frame``, ``reproduction_error``, ``moving``) and
     ``summary`` (``moving_points``, the share of the points by ``source`` and by ``region``, the median
     ``share`` of the source in its cell, and ``body_power``: each body region's share of the body's echo
-    power summed over every cell of the frames, to set the sources against). Raises :class:`MovingCellsError` when a frame is not reproduced.
+    power summed over every cell of the frames, to set the sources against).
+
+    ``gains`` (``{variant: {region: dB}}``): for attribution only, each variant's frame is synthesised
+    again with the echoes of the named regions (:data:`REGIONS`) scaled by their gain (the same noise
+    draw) and run through the chain; ``summary["variants"]`` then holds, for ``"as run"`` and every
+    variant, ``moving_points_per_frame``, ``frames_with_moving`` and ``frames_with_two_bins`` (the share
+    of the frames with a moving point whose moving points lie at two or more Doppler bins). Raises :class:`MovingCellsError` when a frame is not reproduced.
     """
     from ..animation import load_animation
     from ..echoes import Echoes
     from ..store import open_run
     from ..synthesis import synthesize
     from ..threads import run_threads
-    from ..ti.oob import run_point_clouds, run_processing
+    from ..ti.oob import dc_range_signature, detect, range_spectra, run_point_clouds, run_processing
 
     run = open_run(store)
     radar = run.radar
@@ -125,6 +139,17 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
     columns: dict = {"frame": [], "k": [], "range_index": [], "source": [], "region": [], "share": []}
     per_frame: dict = {"frame": [], "reproduction_error": [], "moving": []}
     region_power = {r: 0.0 for r in REGIONS}
+    gains = dict(gains or {})
+    for name, gain in gains.items():
+        unknown = [r for r in gain if r not in REGIONS]
+        if unknown:
+            raise MovingCellsError(f"gains[{name!r}]: unknown region {', '.join(unknown)}; choose from {', '.join(REGIONS)}")
+    counts = {name: [] for name in ["as run", *gains]}
+    signature = None
+    if gains and processing.dc_calibration.enabled and run.done_frames.size:
+        needed = max(1, -(-processing.dc_calibration.num_average_chirps // (radar.num_chirps * radar.num_tx)))
+        signature = dc_range_signature(np.concatenate([range_spectra(run.cube(int(d)), radar)
+                                                       for d in run.done_frames[:needed]]), processing)
     with run_threads(threads):
         for f in frames:
             echoes = engine.echoes(animation, radar, f, radar_pose=run.pose_at(f))
@@ -149,6 +174,17 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
             for g, p in power.items():
                 region_power[body_region(g)] += float(p.sum())
             cloud = clouds[f]
+            counts["as run"].append(_frame_counts(cloud, near_range))
+            regions = np.array([body_region(g) for g in groups.tolist()])
+            for name, gain in gains.items():
+                scale = np.ones(regions.size)
+                for region, db in gain.items():
+                    scale[regions == region] = 10.0 ** (float(db) / 20.0)
+                scaled = Echoes(echoes.a * scale, echoes.tau, echoes.doppler, doppler_rate=echoes.doppler_rate)
+                cube = synthesize(scaled, radar, frame_time=float(times[f]), noise=noise,
+                                  rng=np.random.default_rng([seed, f]), leakage_db=leakage)
+                counts[name].append(_frame_counts(detect(cube, radar, processing, frame_number=f + 1,
+                                                         time=float(times[f]), dc_signature=signature), near_range))
             n_doppler = next(iter(power.values())).shape[0]
             moving = np.flatnonzero((np.asarray(cloud.doppler_index) != 0) & (cloud.range >= near_range))
             for i in moving:
@@ -172,6 +208,15 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
                "region": {r: by_region.get(r, 0) / n for r in REGIONS},
                "median_share": float(np.median(points["share"])) if points["share"].size else float("nan"),
                "body_power": {r: region_power[r] / body for r in REGIONS if r != ROOM}}
+    if gains:
+        summary["variants"] = {}
+        for name, rows in counts.items():
+            c = np.asarray(rows, float).reshape(-1, 2)
+            with_moving = c[:, 0] > 0
+            summary["variants"][name] = {
+                "moving_points_per_frame": float(c[:, 0].mean()) if c.size else float("nan"),
+                "frames_with_moving": float(with_moving.mean()) if c.size else float("nan"),
+                "frames_with_two_bins": float(np.mean(c[with_moving, 1] >= 2)) if with_moving.any() else float("nan")}
     return {"points": points, "frames": {k: np.asarray(v) for k, v in per_frame.items()}, "summary": summary}
 
 

@@ -368,16 +368,22 @@ def chain_table(result: dict) -> str:
     return "\n".join(lines)
 
 
-def source_attribution(pairs, frames, grid) -> dict:
+def source_attribution(pairs, frames, grid, limb_gains=()) -> dict:
     """:func:`~sionnafmcw.validation.moving_cells.moving_cell_sources` of ``frames`` of each
     ``(recording, store)`` pooled, with every moving point also placed against its trunk's Doppler bin:
     ``{"all": {region: share}, "at_trunk_bin": {...}, "off_trunk_bin": {...}, "body_power": {...},
-    "points": n, "items": [...], "frames": [...], "reproduction_error_max": e, "median_share": m}``."""
+    "points": n, "items": [...], "frames": [...], "reproduction_error_max": e, "median_share": m}``; with
+    ``limb_gains`` (dB) also ``"limb_gains"``: the moving points per frame, the frames with one and those
+    with two Doppler bins or more, as run and with the arms' and legs' echoes scaled by each gain."""
     from .moving_cells import REGIONS, moving_cell_sources
 
     regions, at_trunk, body_power, shares, errors = [], [], [], [], []
+    gains = {f"arms and legs {g:+g} dB": {"arms": g, "legs": g} for g in limb_gains}
+    variant_rows: dict = {}
     for recording, store in pairs:
-        result = moving_cell_sources(store, frames)
+        result = moving_cell_sources(store, frames, gains=gains or None)
+        for name, row in result["summary"].get("variants", {}).items():
+            variant_rows.setdefault(name, []).append(row)
         truth = person_truth(store)
         trunk_bin = np.rint(np.asarray(truth.trunk_radial_velocity) / grid[0]).astype(np.int64)
         pts = result["points"]
@@ -397,7 +403,9 @@ def source_attribution(pairs, frames, grid) -> dict:
             "all": split(every), "at_trunk_bin": split(at_trunk), "off_trunk_bin": split(~at_trunk),
             "body_power": {r: float(np.mean([b[r] for b in body_power])) for r in body_power[0]} if body_power else {},
             "median_share": float(np.median(shares)) if shares else float("nan"),
-            "reproduction_error_max": max(errors) if errors else float("nan")}
+            "reproduction_error_max": max(errors) if errors else float("nan"),
+            **({"limb_gains": {name: {key: float(np.nanmean([r[key] for r in rows])) for key in rows[0]}
+                               for name, rows in variant_rows.items()}} if variant_rows else {})}
 
 
 def sources_table(result: dict) -> str:
@@ -414,6 +422,11 @@ def sources_table(result: dict) -> str:
     lines.append(f"\nitems {', '.join(result['items'])}, frames {', '.join(map(str, result['frames']))}; the source's "
                  f"median share of its cell {_fmt(result['median_share'])}; re-run frames reproduce the stored cubes "
                  f"to {result['reproduction_error_max']:.1e} (relative)")
+    if "limb_gains" in result:
+        lines += ["", "| echoes (attribution) | moving points a frame | frames with one | of those, two Doppler bins "
+                  "or more |", "|---|---|---|---|"]
+        lines += [f"| {name} | {_fmt(r['moving_points_per_frame'])} | {_fmt(r['frames_with_moving'])} | "
+                  f"{_fmt(r['frames_with_two_bins'])} |" for name, r in result["limb_gains"].items()]
     return "\n".join(lines)
 
 
@@ -440,11 +453,16 @@ def main(argv=None) -> int:
                         "objects whose echoes make them (sionnafmcw.validation.moving_cells: the engine re-run, "
                         "10-25 s a frame)")
     parser.add_argument("--source-items", help="the item ids (comma-separated) for --sources (default: all)")
+    parser.add_argument("--limb-gains", help="with --sources: gains in dB (comma-separated, e.g. -6,-12) by which the "
+                        "arms' and legs' echoes are scaled, frame synthesised again and run through the chain "
+                        "(attribution, not a setting)")
     args = parser.parse_args(argv)
     try:
         source_frames = [] if args.sources is None else [int(f) for f in args.sources.split(",")]
+        limb_gains = [] if args.limb_gains is None else [float(g) for g in args.limb_gains.split(",")]
     except ValueError:
-        print(f"error: --sources must be comma-separated frame indices, got {args.sources!r}", file=sys.stderr)
+        print(f"error: --sources must be comma-separated frame indices and --limb-gains comma-separated dB, got "
+              f"{args.sources!r} and {args.limb_gains!r}", file=sys.stderr)
         return 2
     from ..store import RunStoreError
     from ..engines.errors import EngineError
@@ -488,7 +506,7 @@ def main(argv=None) -> int:
             if source_frames:
                 chosen = None if args.source_items is None else set(args.source_items.split(","))
                 picked = [(r, s) for r, s in zip(synthetic, stores) if chosen is None or s.parent.name in chosen]
-                sources = source_attribution(picked, source_frames, grid)
+                sources = source_attribution(picked, source_frames, grid, limb_gains)
                 metrics["sources"] = sources
                 print(f"## simulated {args.activity}: which echoes make the moving cells\n\n{sources_table(sources)}\n")
     except (FileNotFoundError, ValueError, RunStoreError, RadharFormatError, EngineError) as error:
