@@ -1,4 +1,4 @@
-"""Micro-Doppler envelope of every activity against its motion's truth (issue 23).
+"""Micro-Doppler envelope of every activity against its motion's truth.
 
     PYTHONPATH=. /work/main/.venv/bin/python benchmarks/activity_envelopes.py [ACTIVITY ...]
 

@@ -204,7 +204,7 @@ def scene_cost(num_frames=100):
 
 def before_after(distances=(3.0, 10.0), step_deg=20.0, edge_a=0.008):
     """The body's RCS statistics over aspect and pose, A (``edge_a`` mesh, its area-weighted vertex
-    normals, samples on the flat facets: the body before issue 22) against B (the default body: its
+    normals, samples on the flat facets: the former default body) against B (the default body: its
     :data:`MESH_EDGE` mesh with the exact normals of its shapes, refined to its smooth surface with the
     samples on it, as the engines render it), both rendered by ``tests/smooth_po.body_rcs`` at the
     resolution rule's pixel step; the aspects interleaved A, B. Per range: mean (linear), median, 10 and

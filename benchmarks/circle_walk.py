@@ -35,7 +35,7 @@ variable ``DRJIT_CACHE_DIR`` when it initialises (default ``$HOME/.drjit``, file
 ``--tree-a`` / ``--tree-b``: the run imports ``sionnafmcw`` from that checkout (``PYTHONPATH``),
 so that a code change is measured against the code before it, interleaved, with the same options.
 ``--scene-a`` / ``--scene-b``: each method's own scene (default ``--scene`` for both), for a change
-of the scene format (issue 22: the walk written a PLY per segment and frame before, once per segment
+of the scene format (rigid parts stored once: the walk written a PLY per segment and frame before, once per segment
 with a transform per frame after; each tree reads the scene its own builder wrote).
 
 Measured
@@ -100,8 +100,8 @@ memory B/A 0.928; e_velo 0.414 / 0.450 / 0.418 m/s for both. ``synth+st`` halves
 centroids of 13 segments x 100 frames, computed before the first frame, took 7-8 s); the run
 stays CPU-bound: 207 CPU-s in 116 s on two cores.
 
-Issue 22 (rigid parts stored once, 32 mm body on its smooth PO surface, Sionna on the stored proxy),
-today's main as A with its own 8 mm per-frame scene (460 MB), B the new builder's scene (2.4 MB)::
+Rigid parts stored once (32 mm body on its smooth PO surface, Sionna on the stored proxy) against
+main before them as A with its own 8 mm per-frame scene (460 MB), B the new builder's scene (2.4 MB)::
 
     python benchmarks/circle_walk.py --frames 100 --seeds 1 2 3 --scene-a /tmp/cw_base \
         --scene-b /tmp/cw_quad --tree-a /work/main --tree-b /tmp/snap24 --method-a '{}'
@@ -166,7 +166,7 @@ filtered once, against main before them (39034ed, ``git archive`` into ``/tmp/fc
     B mean     177.3    68.4    1.77     7.1    1.63    172.7      4.6   6.0      7.8 109.9     4.1  41.1  0.439     1376
 
 CPU B/A 0.922 / 0.950 / 0.943 (mean 0.938), peak memory B/A 0.978; e_velo A 0.474 / 0.458 / 0.452
-(stop 26's B to the digit), B 0.429 / 0.426 / 0.462 m/s: B - A -0.044 / -0.031 / +0.010 (mean
+(the B above to the digit), B 0.429 / 0.426 / 0.462 m/s: B - A -0.044 / -0.031 / +0.010 (mean
 -0.022, sd 0.028), within the seeds' spread (six seeds before: sd 0.021-0.028 m/s).
 """
 

@@ -1,6 +1,6 @@
-"""The paper's circle walk under two engine models: issue 11's physics, or issue 24's motion within the CPI.
+"""The paper's circle walk under two engine models: the scattering physics, or motion within the CPI.
 
-``--models physics`` (default, issue 11):
+``--models physics`` (default):
 
 ``before``: ``PathEngine(physical_optics=False, random_phase=False)`` (one coherent trace, Sionna's
 geometric-optics mirror paths, diffuse paths with their deterministic phases); ``after``: the
@@ -10,7 +10,7 @@ radar walk-77ghz), same rays (``--samples-per-src``, depth 1 as ``validation/cir
 solver seeds (``--seeds``), same noise seed; for every solver seed the two runs follow each other
 (``before`` first, then ``after``) so that both see the same machine load.
 
-``--models cpi_motion`` (issue 24, item 1): ``frozen`` (``PathEngine(cpi_motion="frozen")``, the defaults:
+``--models cpi_motion``: ``frozen`` (``PathEngine(cpi_motion="frozen")``, the defaults:
 every contribution keeps the frame's Doppler over the CPI) against ``quadratic``
 (``cpi_motion="quadratic"``: every contribution's Doppler rate from the accelerations of its
 interaction points, the Doppler sweeping across the CPI).
@@ -46,7 +46,7 @@ seed under the same load: engine 2.1 -> 4.6 and simulate 2.6 -> 6.6 (seed 2), en
 and simulate 2.8 -> 4.1 (seed 3); the PO render of the room (1.5e5 of 1.9e5 samples) is most of
 the difference.
 
-``--models cpi_motion`` measured (issue 24; 100 frames, solver seeds 1, 2, 3, the defaults: 32 mm
+``--models cpi_motion`` measured (100 frames, solver seeds 1, 2, 3, the defaults: 32 mm
 rigid walker on its smooth PO surface, ``--samples-per-src`` default, scene built by the script)::
 
     model      e_velo per seed      mean   e_velo (CPI centre)  within one bin    limb > torso  limb cell
@@ -121,7 +121,7 @@ def main(argv=None) -> int:
     parser.add_argument("--scene", default=None, help="existing circle_walk animation (default: build one in --out)")
     parser.add_argument("--out", default="out/circle_walk_physics")
     parser.add_argument("--models", choices=tuple(MODEL_SETS), default="physics",
-                        help="physics: issue 11's before/after; cpi_motion: issue 24's frozen/quadratic CPI")
+                        help="physics: GO paths before, PO and random phases after; cpi_motion: frozen/quadratic CPI")
     args = parser.parse_args(argv)
     models = MODEL_SETS[args.models]
 

@@ -1,4 +1,4 @@
-"""Motion within the CPI and the moving radar (issue 24, items 1 and 2): their cost per frame, and the
+"""Motion within the CPI and the moving radar: their cost per frame, and the
 figures of docs/guide/motion.md.
 
     .venv/bin/python benchmarks/cpi_motion.py cost [--frames 6] [--rounds 2] [--scene DIR]

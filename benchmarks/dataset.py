@@ -38,12 +38,12 @@ twice, ``--scenario straight_walk --items 4 --frames 4 --workers 1``: t_1 = 10.6
 core-s/item before, 9.58 / 9.71 after (0.90 of before; about 670 and 745 items an hour on the 2
 cores); 3.35 MB/item both.
 
-Issue 22's last stop (the hit geometry kernel, the frozen PO kernel, the rebalanced stages) against
-main before it (edb4aac), the same way and command: t_1 = 9.62 / 9.54 core-s/item before, 8.80 /
+The hit geometry kernel, the frozen PO kernel and the rebalanced stages against
+main before them (edb4aac), the same way and command: t_1 = 9.62 / 9.54 core-s/item before, 8.80 /
 8.62 after (0.91; about 750 and 825 items an hour on the 2 cores; t_1 read from the printed
 estimate, 160 workers x 60 / items per minute); 3.35 MB/item both.
 
-The PO render's curvature classes and the static block filtered once (issue 31) against main
+The PO render's curvature classes and the static block filtered once against main
 before them (39034ed), each tree from its own copy, once each, the same command, the machine
 shared with other sessions (load average 6-8): t_1 = 11.91 core-s/item before, 11.15 after (0.94;
 about 600 and 650 items an hour on the 2 cores); 3.35 MB/item both. The walker of
@@ -51,7 +51,7 @@ about 600 and 650 items an hour on the 2 cores); 3.35 MB/item both. The walker o
 the data-set frame of ``benchmarks/frame_cost.py`` (a jumping person in a room, RadHAR's IWR1443)
 drops to 0.57-0.61 of its CPU.
 
-Short items of the RadHAR-like data sets (issue 31's first-frame work: the bounce rule's neighbour
+Short items of the RadHAR-like data sets (the first-frame work: the bounce rule's neighbour
 search and chain ids, the static block's cube in chunks) against main at 96945cb (A, ``git archive
 96945cb | tar -x -C /tmp/ff/treeA``, ``PYTHONPATH`` set to each tree, this script for both), A then
 B, the machine shared with a data-set generation (load average 6-9), 4-frame items, 1 worker::

@@ -116,7 +116,7 @@ and what would remove it:
 * the body's PO render (rays, samples on the smooth surface: 0.18 s) and its second bounce
   (0.11 s; about half of the frame's 85k contributions are the body's reflections, mostly onto the
   floor and walls, and take about half of the PO integral, 0.11 s in all, and of the synthesis):
-  a sample budget for the bounces (issue 35);
+  a sample budget for the bounces;
 * the merge's failing tries (0.05 s) and a synthesis per contribution (0.36 s): a merge whose
   bound admits the cells this radar cannot resolve (the bound is a worst case over element pairs,
   2-10 times the measured merge error, ``benchmarks/po_merge.py``);

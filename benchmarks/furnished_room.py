@@ -1,4 +1,4 @@
-"""The cost per frame of a furnished room with three people against the paper's circle walk (issue 23).
+"""The cost per frame of a furnished room with three people against the paper's circle walk.
 
     PYTHONPATH=. /work/main/.venv/bin/python benchmarks/furnished_room.py [--frames 24] [--scenes DIR] [--json PATH]
 

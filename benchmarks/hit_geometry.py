@@ -18,8 +18,7 @@ their largest entry). The kernel is compiled (or read from Dr.Jit's cache) befor
 
 Measured
 --------
-The figures and the command are in the closing note of issue 22 (stop 27) and in
-:mod:`sionnafmcw.engines.hit_geometry`.
+The figures and the command are in :mod:`sionnafmcw.engines.hit_geometry`.
 """
 
 from __future__ import annotations

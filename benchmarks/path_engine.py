@@ -2,7 +2,7 @@
 
 Two benchmarks (``--bench``; ``all`` runs both).
 
-``coherence`` (issue 11): the circle walk (``sionnafmcw.scenes.registry.build("circle_walk")``,
+``coherence``: the circle walk (``sionnafmcw.scenes.registry.build("circle_walk")``,
 radar walk-77ghz) through ``simulate`` with ``PathEngine(array_model="coherent")`` and
 ``PathEngine(array_model="per-element")``, same rays (samples per source, seed, depth), the two
 engines interleaved frame by frame in one process (which goes first alternates) so that both

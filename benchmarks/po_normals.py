@@ -1,4 +1,4 @@
-"""What turning frame 0's shading normals saves the path engine's PO render (issue 12).
+"""What turning frame 0's shading normals saves the path engine's PO render.
 
 The walking body is 13 rigid segments, each a new PLY every frame. The PO render needs smooth
 shading normals and curvature radii for every mesh (``po_render.scene_objects``). Since this

@@ -1,4 +1,4 @@
-"""The receiver effects (issue 24, items 3-5): their cost per frame, and the figures of docs/guide/receiver.md.
+"""The receiver effects: their cost per frame, and the figures of docs/guide/receiver.md.
 
     .venv/bin/python benchmarks/receiver_effects.py cost [--contributions 100000] [--repeat 5] [--seed 0]
     .venv/bin/python benchmarks/receiver_effects.py figures [--out docs/_static/figures]

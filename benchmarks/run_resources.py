@@ -41,8 +41,7 @@ order of floating-point sums at most.
 Measured
 --------
 On the 2-core machine, nothing else running: the figures and their commands are in the
-docstrings of :mod:`sionnafmcw.threads` and :mod:`sionnafmcw.heap` and in the closing note of
-issue 22.
+docstrings of :mod:`sionnafmcw.threads` and :mod:`sionnafmcw.heap`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Smooth surfaces from vertex normals (issue 22, item 4): PN refinement, its level, and the PO it gives.
+"""Smooth surfaces from vertex normals: PN refinement, its level, and the PO it gives.
 
     .venv/bin/python benchmarks/smooth_surface.py geometry   # levels, triangle counts, distance to the true surface
     .venv/bin/python benchmarks/smooth_surface.py po         # icospheres and cylinder against the exact-surface PO

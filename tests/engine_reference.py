@@ -1,13 +1,13 @@
 r"""Fixed engine cases whose echoes are stored in ``tests/data/engine_reference.npz``.
 
-The reference was first written by the code *before* the engine-family redesign (issue 10) and
+The reference was first written by the code *before* the engine-family redesign and
 regenerated, with ``python tests/engine_reference.py``, when the path engine's echoes changed on
-purpose: issue 11 (one trace for the whole array, ``array_model="coherent"``, every element pair
+purpose: one trace for the whole array (``array_model="coherent"``, every element pair
 from the interaction points; coincident specular paths removed), and again, for the path engine
 only (``python tests/engine_reference.py --only path``, the pixel arrays kept as stored), for
-issue 11's PO direct echo, ray-tube PO multi-bounce and random-phase diffuse paths; and, both
-engines, for issues 22-24 (the walker as 13 rigid segments of 32 mm edges stored once with a
-transform per frame, its PO samples on the smooth surface, the worth-first PO merge).
+its PO direct echo, ray-tube PO multi-bounce and random-phase diffuse paths; and, both
+engines, for the walker as 13 rigid segments of 32 mm edges stored once with a
+transform per frame, its PO samples on the smooth surface and the worth-first PO merge.
 ``tests/test_engine_reference.py``
 recomputes the same cases with today's code and asserts that every array is identical, bit for
 bit. Regenerate it only for a change that is meant to alter the echoes, and say so in the commit.
@@ -15,7 +15,7 @@ bit. Regenerate it only for a change that is meant to alter the echoes, and say 
 Both engines' arrays (a PO echo of a room has ~1e5 contributions per element pair) are stored as
 their SHA-256 digest with their shape and dtype (:func:`digest`), which is just as bit-for-bit
 and keeps the file small. The pixel engine's were regenerated (``--only pixel``) for its PO
-default and random-phase diffuse pixels (issue 11).
+default and random-phase diffuse pixels.
 
 Bit for bit holds on one machine only: Dr.Jit compiles its kernels (Sionna's trace, the renders'
 ray casts) for the host CPU, and another instruction set rounds differently, which flips the hits

@@ -1,6 +1,6 @@
 r"""PO on a (refined) mesh the way the engine's render evaluates it, and the meshes of the comparisons.
 
-Shared by ``tests/test_smooth_surface.py`` and ``benchmarks/smooth_surface.py`` (issue 22, item 4).
+Shared by ``tests/test_smooth_surface.py`` and ``benchmarks/smooth_surface.py``.
 
 :func:`mesh_po_channels` puts the PO samples where the engine's render puts them: on the flat
 facets of the mesh it is given (positions by barycentric interpolation of the corners), with the

@@ -1,4 +1,4 @@
-"""Element patterns per board (issue 24, item 5): one gain in NumPy, Dr.Jit, Sionna's registry, the PO kernel,
+"""Element patterns per board: one gain in NumPy, Dr.Jit, Sionna's registry, the PO kernel,
 point targets and the path engine; measured pattern files; the azimuth response of a swept target follows it.
 
 Tolerances: NumPy against Dr.Jit in double precision to 1e-12; against Sionna's single-precision pattern

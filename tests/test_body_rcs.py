@@ -1,5 +1,5 @@
-"""The walking body's mesh resolution and its physical-optics RCS at 77 GHz (issue 11, items 3 and 6;
-issue 22, item 4: 32 mm segments with exact normals, rendered on their smooth surface).
+"""The walking body's mesh resolution and its physical-optics RCS at 77 GHz (32 mm segments
+with exact normals, rendered on their smooth surface).
 
 Tolerances from physics: the sagitta rules (lambda/25 for the PO surface, 1/8 of a range bin for
 Sionna's proxy), the PO of a sphere (pi r^2 |Gamma|^2 (1 - S^2) within 1 dB, 1/(ka) ripple and render

@@ -1,4 +1,4 @@
-"""Motion within the CPI (issue 24, item 1) against closed forms: the kinematics of a path, the
+"""Motion within the CPI against closed forms: the kinematics of a path, the
 quadratic delay in the synthesis, and the Doppler smear of an accelerating target through both engines.
 
 Closed form: a reflector whose range accelerates at :math:`\\ddot R` (constant) over the CPI

@@ -1,4 +1,4 @@
-"""Motion within the CPI (issue 24, item 1) through the engines: an accelerating plate gets the Doppler
+"""Motion within the CPI through the engines: an accelerating plate gets the Doppler
 rate of its acceleration (``cpi_motion="quadratic"``) and the closed-form Doppler smear; the frozen
 model keeps it in one bin; the PO merge keeps the rates within its bound.
 

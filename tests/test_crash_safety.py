@@ -1,4 +1,4 @@
-"""Crash safety (issue 14): ``simulate`` and ``dataset`` killed (SIGKILL) or interrupted (SIGINT,
+"""Crash safety: ``simulate`` and ``dataset`` killed (SIGKILL) or interrupted (SIGINT,
 SIGTERM) at exact instants, then resumed and compared bit for bit with an uninterrupted run; every
 bad input refused with one line, before anything is written.
 

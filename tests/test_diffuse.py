@@ -99,7 +99,7 @@ def test_map_power_equals_incoherent_sum_whatever_the_sample_count():
 
 
 def test_deterministic_phases_grow_6db_per_4x_samples():
-    """Today's behaviour (issue 11): diffuse contributions without their own phase add coherently."""
+    """Contrast: diffuse contributions without their own phase add coherently."""
     v, f = meshes.plate((4.0, 0, 0), (0.5, 0.5), normal=(-1, 0, 0))
     step = render_resolution(0.5, 4.0, LAMBDA, samples_across=32)
     growth = []

@@ -1,4 +1,4 @@
-"""A moving radar (issue 24, item 2) against closed forms: ego-Doppler of static clutter, a corridor of
+"""A moving radar against closed forms: ego-Doppler of static clutter, a corridor of
 corner reflectors passed at the right ranges, the per-frame pose in the manifest, the API, the run
 store and the plots.
 
@@ -185,7 +185,7 @@ def peak_velocity_of_cube(cube, radar):
 
 
 def test_store_without_pose_arrays_reads_and_resumes(tmp_path, radar):
-    """A store written before issue 24 (no radar_* arrays) reads its one pose for every frame and resumes."""
+    """A store written before the moving radar (no radar_* arrays) reads its one pose for every frame and resumes."""
     import warnings
 
     import zarr

@@ -1,4 +1,4 @@
-"""Path engine, issue 11: one set of scatterers for the whole array, and no duplicate specular paths.
+"""Path engine: one set of scatterers for the whole array, and no duplicate specular paths.
 
 Tolerances: the angle resolution of the 12-element virtual row of ``walk-77ghz`` (Rayleigh width
 2/12 rad = 9.5 degrees; an estimate passes within half of it), the float precision of Sionna's

@@ -1,9 +1,9 @@
-"""Path engine = PO direct echo + multipath + random-phase diffuse (issue 11, items 2-4), on real scenes.
+"""Path engine = PO direct echo + multipath + random-phase diffuse, on real scenes.
 
 References are written apart from the engine: the triangle quadrature of the PO integral
 (tests/po_quadrature.py) with the radar's own element positions, and the closed forms (plate
 4 pi A^2 / lambda^2, sphere pi r^2, trihedral 4 pi a^4 / (3 lambda^2), Lambertian plate 4 A S^2 |Gamma|^2).
-Tolerances: 1 dB (1.5 dB for the trihedral) from issue 11; 0.5 dB for the sampling invariance.
+Tolerances: 1 dB (1.5 dB for the trihedral); 0.5 dB for the sampling invariance.
 Every figure is the channel of one element pair (Tx 0, Rx 0), so the near field is the pair's own.
 """
 

@@ -1,6 +1,6 @@
 """Near-field physical optics on render samples against an independent quadrature and the closed forms.
 
-Tolerance: 1 dB on every RCS (issue 11); the module samples the surface as a render from the radar
+Tolerance: 1 dB on every RCS; the module samples the surface as a render from the radar
 would (tests/mesh_render.py), the reference integrates the mesh triangles (tests/po_quadrature.py).
 """
 

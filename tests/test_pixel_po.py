@@ -1,11 +1,11 @@
 """The pixel engine's physical-optics mode and random-phase diffuse scatterers, through the engine on real scenes.
 
-Closed forms (issue 11): a square plate of side a facing the radar at range R has the near-field
+Closed forms: a square plate of side a facing the radar at range R has the near-field
 PO RCS of the Fresnel integral (``po_quadrature.square_plate_rcs_fresnel``), tending to
 4 pi a^4 / lambda^2 in the far field; a sphere pi r^2; a rough plate splits its reflected power
 into (1 - S^2) through PO and S^2 through the Lambertian scatterers (4 A |Gamma|^2 facing the
-radar). Tolerances: 1 dB for PO against the closed forms (issue 11), 0.5 dB for the diffuse map
-power (issue 11), the Monte-Carlo scatter of a few speckle realisations stated where used.
+radar). Tolerances: 1 dB for PO against the closed forms, 0.5 dB for the diffuse map
+power, the Monte-Carlo scatter of a few speckle realisations stated where used.
 
 Received power: the PO contributions are summed coherently (the channel h = sum a e^{-j 2 pi f tau},
 what the beat synthesizer does), sigma = (4 pi)^3 R^4 |h|^2 / lambda^2 for an isotropic point radar;
@@ -240,7 +240,7 @@ def test_diffuse_map_power_equals_incoherent_sum_whatever_the_pixel_count(tmp_pa
 
 
 def test_deterministic_phases_grow_with_the_pixel_count(tmp_path):
-    """Contrast (issue 11, today's eq. (2)): a 0.5 m rough plate facing the radar at 4 m, receding at
+    """Contrast (the paper's Lambertian eq. (2)): a 0.5 m rough plate facing the radar at 4 m, receding at
     1 m/s; without their own phases (``diffuse_phase="deterministic"``) the pixels add coherently and
     the map power over sum |a|^2 grows with the pixel count N as N (6 dB per 4x) where all add in
     phase; the plate's range curvature (2 lambda across it) leaves some phase structure. Measured

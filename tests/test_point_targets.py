@@ -1,4 +1,4 @@
-"""Analytic point targets, synthesis + processing (issue 2), property-based.
+"""Analytic point targets, synthesis + processing, property-based.
 
 Tolerances from resolution: range and velocity within 0.1 bin (interpolated peaks of 4x
 zero-padded Hann spectra: their bias is ~0.01 bin, the rest is noise at SNR > 20 dB);

@@ -1,4 +1,4 @@
-"""The receiver (issue 24, items 3 and 4): phase noise, IF chain, ADC and I/Q imbalance against closed forms.
+"""The receiver: phase noise, IF chain, ADC and I/Q imbalance against closed forms.
 
 Tolerances: the noise-free cubes are exact to the direct sum (1e-12) or the NUFFT's tight default
 (1e-7), so a complex gain is checked to 1e-6; averaged periodograms of Gaussian terms have a relative

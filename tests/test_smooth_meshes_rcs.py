@@ -1,4 +1,4 @@
-"""Any user mesh at the right RCS (issue 22, item 4), through the path engine at its defaults.
+"""Any user mesh at the right RCS, through the path engine at its defaults.
 
 A smooth-shaded metal mesh (PLY vertex normals, ``face_normals`` false) as a user exports it: a 320- or
 1280-face icosphere (r = 0.1 m) and a 24-sided cylinder (r = 0.05 m, 0.3 m long, broadside, sharp rims:

@@ -1,4 +1,4 @@
-"""The smooth surface rebuilt from a mesh's vertex normals (issue 22, item 4): curved PN triangles,
+"""The smooth surface rebuilt from a mesh's vertex normals: curved PN triangles,
 their refinement level, and the PO they give against an analytic-surface reference.
 
 Tolerances from geometry and physics: the centroid error of a PN patch on a sphere (closed form,

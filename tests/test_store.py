@@ -130,7 +130,7 @@ def test_errors_name_the_store_in_library_language(tmp_path):
                              "scene": "/scenes/x", "seed": 4, "noise": False})
 
 
-# ===================================================================================== crash safety (issue 14)
+# ===================================================================================== crash safety
 ATTRS = {"radar": RADAR.to_dict(), "radar_pose": POSE, "engine": {"engine": "path", "max_depth": 1},
          "scene": "/scenes/x", "seed": 3, "noise": False}
 

@@ -47,7 +47,7 @@ def test_phase_polynomial_is_exact(small_radar):
 
 @pytest.mark.parametrize("tx_order", [[0, 1, 2], [2, 0, 1]])
 def test_fast_sum_matches_direct_sum(small_radar, tx_order):
-    """Issue 2: the two implementations agree to <= 1e-5 relative (norm of the difference)."""
+    """The two implementations agree to <= 1e-5 relative (norm of the difference)."""
     radar = small_radar.replace(tx_order=tx_order)
     echoes = random_echoes(radar, 300, seed=len(tx_order) + tx_order[0])
     direct = beat_direct(echoes, radar)
@@ -214,7 +214,7 @@ def max_channel_error(fast, direct):
                                                                    ([0, 1, 2], 0.05, 17.0, "complex64"),
                                                                    ([0, 1, 2], 0.05, 20.0, "complex128")])
 def test_noise_budget_keeps_error_20_db_below_noise(small_radar, tx_order, scale, max_speed, precision):
-    """Issue 12: with noise on, every sample's synthesis error is >= 20 dB below the thermal noise.
+    """With noise on, every sample's synthesis error is >= 20 dB below the thermal noise.
 
     Echoes 26 dB weaker (``scale`` 0.05) leave room for single precision under the NUFFT bound's
     safety factor of 16 on finufft's tolerance, up to twice the unambiguous velocity (9.3 m/s:
@@ -275,7 +275,7 @@ def test_noise_off_keeps_tight_tolerance(small_radar):
 
 @pytest.mark.parametrize("channels_per_plan", [1, 3])
 def test_keystone_fitted_per_plan_leaves_the_cross_residual_of_the_range_spread(small_radar, channels_per_plan):
-    """Issue 12: the cross residual delta_p = C_p - eps B_p is about (mu/F^2) A_p B_p, so a slope fitted
+    """The cross residual delta_p = C_p - eps B_p is about (mu/F^2) A_p B_p, so a slope fitted
     to a moving body 6.0-6.3 m away leaves (mu/F^2)(A_p - A_mean) B_p: its weight in the error bound
     falls to at most the range span over the range (0.3 / 6.0, far below the radar slope's). With a
     budget that lets the Taylor series drop the fitted residual but not the radar slope's, the fitted

@@ -1,4 +1,4 @@
-"""Reduced versions of the validation experiments (issue 5), with the same metrics and targets.
+"""Reduced versions of the validation experiments, with the same metrics and targets.
 
 * ``pixel_vs_path`` on the rough moving plate, 4 frames: range-profile correlation >= 0.95,
   Doppler-time within one Doppler bin on every CPI, power within 3 dB. Reduced resolution: a
