@@ -127,6 +127,42 @@ and what would remove it:
   when the room and the radar's pose repeat.
 
 A quarter of A's CPU (0.37-0.43 CPU-s a frame) is not reached by these two changes (0.57-0.61).
+
+Later, on the 2-core AMD EPYC with AVX-512 (quiet but for this run), main at 8d4614a (A,
+``/tmp/fc/treeM``) against the IF chain's gain by table (:func:`sionnafmcw.receiver.if_filter.tabulated_response`),
+the still contributions' 1-D sum (``sionnafmcw.synthesis.nufft``, *Still contributions*), the blocked static
+samples' contributions taken from the static block and index-gathered selections (B), and main at the
+issue's baseline 96e6099 (``/tmp/fc/treeA``) against B::
+
+    python benchmarks/frame_cost.py --tree-a /tmp/fc/treeM --frames 60 --repeats 2 --scene /tmp/fc/out/jump
+    python benchmarks/frame_cost.py --tree-a /tmp/fc/treeA --frames 60 --repeats 1 --scene /tmp/fc/out/jump
+    python benchmarks/frame_cost.py --tree-a /tmp/fc/treeM --item ITEM --sequential 12
+
+    jump scene, 8d4614a -> B: CPU B/A 0.980 and 0.964 (wall 0.976, 0.971); 0.96-1.00 CPU-s a frame;
+        cube error -83.1 dB of A's power (the table's 1e-6), the strongest cells the same in all frames
+    jump scene, 96e6099 -> B: CPU B/A 0.621, wall 0.661 (0.92 against 1.48 CPU-s a frame)
+    a RadHAR item (boxing, a furnished room, the item's drawn receiver: run4 item 000020),
+        A: frame 0 engine 14.57 + synthesis 4.52 CPU-s; frames 1-12 engine 1.112 + synthesis 0.715
+        B: frame 0 engine 13.22 + synthesis 3.21 CPU-s; frames 1-12 engine 1.097 + synthesis 0.576
+        (frame 0 -14 %, a steady frame -8 %, its synthesis -19 %)
+
+The item's frame carries 1.08e6 contributions per element pair, 0.90e6 of them the cached static block;
+of the 0.175e6 summed every frame 0.099e6 are the body's PO and 0.075e6 the static samples the body
+blocks (the shadow of the person on the room and the furniture, with the opposite sign). What is left of
+its 1.67 CPU-s (engine wall s a frame: the PO stage 0.45, of it the body's render and its reflections
+about 0.25, Sionna's trace 0.10 for the 450 or so paths of the frame that touch the body; synthesis 0.58
+CPU-s, most of it the 2-D transforms of the body's contributions), and what would remove it:
+
+* the blocked static samples (0.075e6 a frame, as many as half the body's): a cached cube of an anchor
+  set of blocked samples, each frame only the samples that entered or left the shadow since (a body
+  that moves in place keeps most of its shadow);
+* Sionna's full trace every frame for the few paths that touch the body: a trace of the rays that can
+  reach a moving object;
+* the body's PO samples (0.1e6, the in-sample quadratic-phase bound on curved limbs): a footprint
+  integral exact in the quadratic phase (Fresnel) would allow samples about twice as wide.
+
+None of these reaches a quarter of 96e6099's CPU on its own; together they might approach a half of
+today's.
 """
 
 from __future__ import annotations
