@@ -153,9 +153,10 @@ its 1.67 CPU-s (engine wall s a frame: the PO stage 0.45, of it the body's rende
 about 0.25, Sionna's trace 0.10 for the 450 or so paths of the frame that touch the body; synthesis 0.58
 CPU-s, most of it the 2-D transforms of the body's contributions), and what would remove it:
 
-* the blocked static samples (0.075e6 a frame, as many as half the body's): a cached cube of an anchor
-  set of blocked samples, each frame only the samples that entered or left the shadow since (a body
-  that moves in place keeps most of its shadow);
+* the blocked static samples (0.075e6 a frame, as many as half the body's), whose sum is now the cheap
+  1-D one (they are still): finding them every frame (the cone test against the body's spheres, the
+  casts, taking them out of merged cells: about 0.1 s a frame) could keep an anchor set and test only
+  the samples near the shadow's edge;
 * Sionna's full trace every frame for the few paths that touch the body: a trace of the rays that can
   reach a moving object;
 * the body's PO samples (0.1e6, the in-sample quadratic-phase bound on curved limbs): a footprint
