@@ -247,11 +247,11 @@ def tabulated_response(chain, f, fs: float, tolerance: float = TABLE_TOLERANCE) 
     between exact values on the nodes :math:`n\Delta f` that span ``f`` (a frame's 1e6 contributions take
     7 times less than the exact product over the chain's 16 roots). The nodes are whole multiples of
     :math:`\Delta f`, so a contribution's gain depends on its frequency alone, not on the others'.
-    Exact (:func:`response`) where the bound does not apply or the table would not be smaller than
-    :data:`TABLE_MAX_SHARE` of ``f``."""
+    Exact (:func:`response`) where the bound does not apply, a frequency is not finite, or the table
+    would not be smaller than :data:`TABLE_MAX_SHARE` of ``f``."""
     f = np.asarray(f, dtype=float)
     step = table_step(chain, fs, tolerance)
-    if step is None or f.size == 0:
+    if step is None or f.size == 0 or not (np.isfinite(f.min()) and np.isfinite(f.max())):
         return response(chain, f, fs)
     lo, hi = math.floor(float(f.min()) / step), math.ceil(float(f.max()) / step)
     count = hi - lo + 2
