@@ -208,3 +208,13 @@ def test_moving_cell_sources_of_a_simulated_walker(tmp_path):
     other = scenes.build("radhar", tmp_path / "other", person_range=2.0, **common)
     with pytest.raises(MovingCellsError, match="frame 0 re-run differs from the stored cube"):
         moving_cell_sources(store, [0], scene=other)
+
+
+@pytest.mark.parametrize("extra, named", [(["--chain"], "--items"), (["--sources", "10"], "--items"),
+                                          (["--limb-gains=-6"], "--sources"), (["--source-items", "000001"], "--sources")])
+def test_the_command_line_names_an_option_without_the_one_it_needs(tmp_path, capsys, extra, named):
+    with pytest.raises(SystemExit) as exit_:
+        main(["--synthetic", str(tmp_path), *extra])
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert named in err

@@ -293,12 +293,12 @@ def _platform(radar, sdk: int) -> int:
 
 
 # ---------------------------------------------------------------------------------------- 1D / 2D
-def range_fft(adc: np.ndarray) -> np.ndarray:
+def range_fft(adc: np.ndarray, rounded: bool = True) -> np.ndarray:
     """Range FFT of ADC words ``[..., sample]`` (module docstring, step 2) -> int16-valued complex
-    ``[..., range bin]``."""
+    ``[..., range bin]``; ``rounded=False``: the same spectrum before the output's rounding."""
     n = adc.shape[-1]
     spectrum = np.fft.fft(adc * blackman_q17(n), n=_next_pow2(n), axis=-1) / 4.0
-    return _saturate16(spectrum)
+    return _saturate16(spectrum) if rounded else spectrum
 
 
 def doppler_fft(x: np.ndarray, sdk: int, all_stages_scaled: bool = False, rounded: bool = True) -> np.ndarray:
@@ -422,10 +422,11 @@ def _second_peak(magnitude: np.ndarray, first: int) -> int:
 
 
 # ---------------------------------------------------------------------------------------- the chain
-def _adc_codes(cube: np.ndarray, radar) -> np.ndarray:
+def _adc_codes(cube: np.ndarray, radar, rounded: bool = True) -> np.ndarray:
     scale = words_per_sqrt_watt(radar)
     fired = np.asarray(cube)[:, radar.tx_order]          # [L, M slots, N, S]
-    return _saturate16(fired.astype(np.complex128) * scale)
+    words = fired.astype(np.complex128) * scale
+    return _saturate16(words) if rounded else words
 
 
 def _phase_q15_sdk2(samples: np.ndarray, coefficients: np.ndarray) -> np.ndarray:
@@ -458,9 +459,11 @@ def dc_range_signature(range_spectra: np.ndarray, processing: TiProcessing) -> n
     return signature
 
 
-def range_spectra(cube: np.ndarray, radar) -> np.ndarray:
-    """Range FFT of one frame in the device's units, ``[chirp, slot, rx, range bin]`` (steps 1-2)."""
-    return range_fft(_adc_codes(cube, radar))
+def range_spectra(cube: np.ndarray, radar, rounded: bool = True) -> np.ndarray:
+    """Range FFT of one frame in the device's units, ``[chirp, slot, rx, range bin]`` (steps 1-2);
+    ``rounded=False``: the linear part alone (ADC words and range spectrum without their integer rounding
+    and saturation)."""
+    return range_fft(_adc_codes(cube, radar, rounded), rounded)
 
 
 def detect(cube, radar, processing: TiProcessing, *, frame_number: int = 1, time: float = 0.0,

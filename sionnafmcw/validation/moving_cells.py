@@ -27,7 +27,6 @@ Segments are gathered into body regions for the summary: ``arms`` (names with ``
 
 from __future__ import annotations
 
-import math
 from collections import Counter
 from pathlib import Path
 
@@ -58,19 +57,15 @@ def body_region(group: str) -> str:
     return "trunk and head"
 
 
-def cell_spectrum(cube: np.ndarray, radar) -> np.ndarray:
+def cell_spectrum(cube: np.ndarray, radar, sdk: int = 2) -> np.ndarray:
     r"""The chain's linear range-Doppler spectrum of a cube ``[chirp, tx, rx, sample]``, without rounding:
-    ``[Doppler bin, virtual antenna, range bin]`` in the demo's units (module docstring)."""
-    from ..ti.oob import blackman_q17, hanning_q17
-    from ..receiver.adc import words_per_sqrt_watt
+    ``[Doppler bin, virtual antenna, range bin]`` in the demo's units (module docstring): the chain's own
+    :func:`~sionnafmcw.ti.oob.range_spectra` and :func:`~sionnafmcw.ti.oob.doppler_fft` (SDK ``sdk``)
+    with ``rounded=False``."""
+    from ..ti.oob import doppler_fft, range_spectra
 
-    words = np.asarray(cube)[:, radar.tx_order].astype(np.complex128) * words_per_sqrt_watt(radar)
-    n_samples, n_chirps = words.shape[-1], words.shape[0]
-    ranged = np.fft.fft(words * blackman_q17(n_samples), n=1 << math.ceil(math.log2(n_samples)), axis=-1) / 4.0
-    ranged = ranged.reshape(n_chirps, -1, ranged.shape[-1])
-    size = 1 << math.ceil(math.log2(n_chirps))
-    window = hanning_q17(n_chirps) if n_chirps >= 2 else np.ones(n_chirps)
-    return np.fft.fft(ranged * window[:, None, None], n=size, axis=0) / max(size / 2, 1)
+    ranged = range_spectra(cube, radar, rounded=False)
+    return doppler_fft(ranged.reshape(ranged.shape[0], -1, ranged.shape[-1]), sdk, rounded=False)
 
 
 def _engine_of(run):
@@ -111,7 +106,8 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
     again with the echoes of the named regions (:data:`REGIONS`) scaled by their gain (the same noise
     draw) and run through the chain; ``summary["variants"]`` then holds, for ``"as run"`` and every
     variant, ``moving_points_per_frame``, ``frames_with_moving`` and ``frames_with_two_bins`` (the share
-    of the frames with a moving point whose moving points lie at two or more Doppler bins). Raises :class:`MovingCellsError` when a frame is not reproduced.
+    of the frames with a moving point whose moving points lie at two or more Doppler bins). Raises
+    :class:`MovingCellsError` when a frame is not reproduced or ``gains`` names an unknown region.
     """
     from ..animation import load_animation
     from ..echoes import Echoes
@@ -120,6 +116,12 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
     from ..threads import run_threads
     from ..ti.oob import dc_range_signature, detect, range_spectra, run_point_clouds, run_processing
 
+    gains = dict(gains or {})
+    for name, gain in gains.items():   # bad input first, before any work
+        unknown = [r for r in gain if r not in REGIONS]
+        if unknown:
+            raise MovingCellsError(f"gains[{name!r}]: unknown region {', '.join(unknown)}; "
+                                   f"choose from {', '.join(REGIONS)}")
     run = open_run(store)
     radar = run.radar
     processing = run_processing(run, processing)
@@ -139,11 +141,6 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
     columns: dict = {"frame": [], "k": [], "range_index": [], "source": [], "region": [], "share": []}
     per_frame: dict = {"frame": [], "reproduction_error": [], "moving": []}
     region_power = {r: 0.0 for r in REGIONS}
-    gains = dict(gains or {})
-    for name, gain in gains.items():
-        unknown = [r for r in gain if r not in REGIONS]
-        if unknown:
-            raise MovingCellsError(f"gains[{name!r}]: unknown region {', '.join(unknown)}; choose from {', '.join(REGIONS)}")
     counts = {name: [] for name in ["as run", *gains]}
     signature = None
     if gains and processing.dc_calibration.enabled and run.done_frames.size:
@@ -170,7 +167,8 @@ def moving_cell_sources(store, frames, scene=None, processing=None, near_range: 
                 rate = None if echoes.doppler_rate is None else echoes.doppler_rate[..., idx]
                 part = Echoes(echoes.a[..., idx], echoes.tau[..., idx], echoes.doppler[..., idx], doppler_rate=rate)
                 cube = synthesize(part, radar, frame_time=float(times[f]), noise=False, phase_noise=False)
-                power[g] = (np.abs(cell_spectrum(cube, radar)) ** 2).sum(axis=1)      # [Doppler bin, range bin]
+                # [Doppler bin, range bin]
+                power[g] = (np.abs(cell_spectrum(cube, radar, processing.sdk)) ** 2).sum(axis=1)
             for g, p in power.items():
                 region_power[body_region(g)] += float(p.sum())
             cloud = clouds[f]

@@ -457,6 +457,10 @@ def main(argv=None) -> int:
                         "arms' and legs' echoes are scaled, frame synthesised again and run through the chain "
                         "(attribution, not a setting)")
     args = parser.parse_args(argv)
+    if (args.chain or args.sources is not None) and args.items is None:
+        parser.error("--chain and --sources work on the items' run stores: give --items too")
+    if (args.limb_gains is not None or args.source_items is not None) and args.sources is None:
+        parser.error("--limb-gains and --source-items go with --sources: give --sources FRAMES too")
     try:
         source_frames = [] if args.sources is None else [int(f) for f in args.sources.split(",")]
         limb_gains = [] if args.limb_gains is None else [float(g) for g in args.limb_gains.split(",")]
@@ -505,6 +509,10 @@ def main(argv=None) -> int:
                       f"{chain_table(chain)}\n")
             if source_frames:
                 chosen = None if args.source_items is None else set(args.source_items.split(","))
+                unknown = sorted(chosen - {s.parent.name for s in stores}) if chosen is not None else []
+                if unknown:
+                    raise FileNotFoundError(f"--source-items: no exported {args.activity} item {', '.join(unknown)} "
+                                            f"in {folder}")
                 picked = [(r, s) for r, s in zip(synthetic, stores) if chosen is None or s.parent.name in chosen]
                 sources = source_attribution(picked, source_frames, grid, limb_gains)
                 metrics["sources"] = sources
