@@ -228,7 +228,7 @@ def table_step(chain, fs: float, tolerance: float = TABLE_TOLERANCE) -> float | 
     :math:`\Delta f = \sqrt{8\epsilon/M_2}/(2\pi)`. A shifted (complex) section moves its poles along
     the imaginary axis, which leaves :math:`\mathrm{Re}\,p_i` and the bound as they are. For TI's
     IWR1443 chain (two high-pass poles, a sixth-order elliptic anti-alias filter) at
-    :math:`\epsilon = 10^{-6}`: :math:`\Delta f = 123` Hz, some 4e4 nodes over the band."""
+    :math:`\epsilon = 10^{-6}`: :math:`\Delta f = 124` Hz, some 4e4 nodes over the band."""
     if not chain:
         return None
     z, p, k = chain_zpk(chain, fs)
@@ -244,8 +244,8 @@ def table_step(chain, fs: float, tolerance: float = TABLE_TOLERANCE) -> float | 
 
 def tabulated_response(chain, f, fs: float, tolerance: float = TABLE_TOLERANCE) -> np.ndarray:
     r""":math:`H(f)` as :func:`response`, to within ``tolerance`` (:func:`table_step`): linear interpolation
-    between exact values on the nodes :math:`n\Delta f` that span ``f`` (a frame's 1e6 contributions take
-    7 times less than the exact product over the chain's 16 roots). The nodes are whole multiples of
+    between exact values on the nodes :math:`n\Delta f` that span ``f`` (``benchmarks/if_filter_table.py``
+    times it against the exact product over the chain's roots). The nodes are whole multiples of
     :math:`\Delta f`, so a contribution's gain depends on its frequency alone, not on the others'.
     Exact (:func:`response`) where the bound does not apply, a frequency is not finite, or the table
     would not be smaller than :data:`TABLE_MAX_SHARE` of ``f``."""
