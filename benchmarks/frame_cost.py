@@ -148,10 +148,12 @@ issue's baseline 96e6099 (``/tmp/fc/treeA``) against B::
 
 The item's frame carries 1.08e6 contributions per element pair, 0.90e6 of them the cached static block;
 of the 0.175e6 summed every frame 0.099e6 are the body's PO and 0.075e6 the static samples the body
-blocks (the engine's ``last_stats`` figures ``po_contributions`` and ``static_po_removed`` of frames 0-2) (the shadow of the person on the room and the furniture, with the opposite sign). What is left of
-its 1.67 CPU-s (engine wall s a frame: the PO stage 0.45, of it the body's render and its reflections
-about 0.25 by a cProfile of 12 steady frames, Sionna's trace 0.10 for the 450 or so paths of the frame that touch the body; synthesis 0.58
-CPU-s, most of it the 2-D transforms of the body's contributions), and what would remove it:
+blocks, its shadow on the room and the furniture with the opposite sign (the engine's ``last_stats``
+figures ``po_contributions`` and ``static_po_removed``, frames 0-2). What is left of its 1.67 CPU-s
+(engine wall s a frame: the PO stage 0.45, of it the body's render and its reflections about 0.25 by a
+cProfile of 12 steady frames; Sionna's trace 0.10 for the 450 or so paths of the frame that touch the
+body; synthesis 0.58 CPU-s, most of it the 2-D transforms of the body's contributions), and what would
+remove it:
 
 * the blocked static samples (0.075e6 a frame, as many as half the body's), whose sum is now the cheap
   1-D one (they are still): finding them every frame (the cone test against the body's spheres, the
