@@ -267,7 +267,7 @@ class SurfaceSamples:
     def select(self, mask) -> "SurfaceSamples":
         """The samples where ``mask`` (``[P]`` bool or indices) holds."""
         mask = np.asarray(mask)
-        if mask.dtype == bool:
+        if mask.dtype == bool and mask.shape == (self.num_samples,):   # else numpy names the mismatch
             mask = np.flatnonzero(mask)   # one pass over the mask; then each field gathers its rows only
         kw = {}
         for name in self.__dataclass_fields__:

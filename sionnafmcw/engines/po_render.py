@@ -416,8 +416,8 @@ class Render:
         from dataclasses import replace
 
         keep = np.asarray(keep)
-        if keep.dtype == bool:
-            if keep.shape == (self.num_samples,) and keep.all():
+        if keep.dtype == bool and keep.shape == (self.num_samples,):
+            if keep.all():
                 return self
             keep = np.flatnonzero(keep)   # one pass over the mask; then each field gathers its rows only
 
