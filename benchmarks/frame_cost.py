@@ -166,6 +166,10 @@ remove it:
 
 None of these reaches a quarter of 96e6099's CPU on its own; together they might approach a half of
 today's.
+
+The exact apertures of plane-faced objects (:mod:`sionnafmcw.engines.flat_faces`) against aa66791 on the
+jump scene (``--tree-a <aa66791> --frames 45 --repeats 1``, beside a test run): time B/A 1.011, CPU B/A
+0.998, every cube bit for bit the same (no object of the scene is plane-faced).
 """
 
 from __future__ import annotations

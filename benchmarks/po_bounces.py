@@ -5,9 +5,12 @@
     PYTHONPATH=.:tests python benchmarks/po_bounces.py grid         # defaults against the converged echo
     PYTHONPATH=.:tests python benchmarks/po_bounces.py cost [--frames 13] [--scenes DIR]
 
-Every mode compares **A**, the chains followed at the first bounce's density (``PathEngine(...,
-po_bounce_rule=False)``, what the engine did before the rule), with **B**, the engine's defaults (the
-rule of :mod:`sionnafmcw.engines.bounce_sampling`), in one process.
+Every mode compares, in one process, the engines of :data:`VARIANTS`: **A**, the chains followed at the
+first bounce's density (``PathEngine(..., po_bounce_rule=False, po_flat_faces=False)``, the engine
+before the bounce rule), **B**, the rule of :mod:`sionnafmcw.engines.bounce_sampling` on sampled faces
+(``po_flat_faces=False``, the engine before the exact apertures) and **C**, the defaults (the rule, and
+the plane-faced objects' own chains over their exact apertures, :mod:`sionnafmcw.engines.flat_faces`).
+The figures under *Measured* before the section *Exact apertures* were taken when B was the default.
 
 * ``issue``: ``car_park`` with the radar at rest (``speed=0``), its first pair of 0.1 m trihedrals 3 m
   ahead and 1.5 m to either side (their aperture axes at the radar's start), the radar at x = 0 ...
@@ -21,17 +24,19 @@ rule of :mod:`sionnafmcw.engines.bounce_sampling`), in one process.
   the phase centre on it; and with three bounces, which a trihedral's echo needs.
 * ``mirror``: two 0.1 m trihedrals, mirror images in the plane y = 0, 3 m ahead and 1.5 m to
   either side, turned 0 / 15 / 30 / 45 degrees off their axis; the radar's phase centre on that
-  plane at x = 0, 0.2, 0.4 m; three bounces, ``|h|^2`` of each and their difference.
+  plane at x = 0, 0.2, 0.4 m; three bounces, ``|h|^2`` of each and their difference, and the wall
+  seconds of an engine frame at a new pose (everything rendered again, as for a moving radar).
 * ``grid``: a trihedral (three bounces) or a dihedral (two) of 0.05 / 0.1 / 0.3 m at 1 / 3 / 10 m,
   turned 0 / 15 / 30 / 45 degrees about the vertical (``tests/reflector_scenes.py``), radar
-  ``walk-77ghz`` with isotropic elements: ``|h|^2`` of A and B at the default ``po_samples_across``
-  16 against the converged echo (B at 128: the bound 8 times tighter and the first bounce 8 times
-  finer), in dB, and the samples per bounce.
+  ``walk-77ghz`` with isotropic elements: ``|h|^2`` of A, B and C at the default ``po_samples_across``
+  16 against the converged echo (C at 128; before the exact apertures B at 128: the bound 8 times
+  tighter and the first bounce 8 times finer), in dB, and the samples per bounce of the sampled render.
 * ``cost``: the circle walk (``circle_walk``, one walker in its room) and a furnished room with
-  three walkers (``people``, the furniture of ``benchmarks/furnished_room.py``): A and B take turns
-  frame by frame (the order alternating), each with its own engine (defaults); per frame the
-  engine's wall and CPU seconds and its PO samples; the first frame (scene load, the static block
-  built and rendered once per pose) apart from the steady frames.
+  three walkers (``people``, the furniture of ``benchmarks/furnished_room.py``): two variants
+  (``--pair``, default B and C) take turns frame by frame (the order alternating), each with its own
+  engine; per frame the engine's wall and CPU seconds and its PO samples; the first frame (scene
+  load, the static block built and rendered once per pose) apart from the steady frames; and per
+  object of frame 0 what the second variant changes in ``|h|^2``.
 
 Measured
 --------
@@ -65,6 +70,22 @@ walkers: steady wall 1.860, CPU 1.692 (static samples 225166 -> 929882: the furn
 with the floor), first frame wall 4.48. What it buys (one frame, ``max_depth=2``, per label, against
 ``po_samples_across=32``): the metal cabinet -7.77 -> +1.03 dB, the door -6.62 -> +0.04 dB, wall_x1
 +2.75 -> -0.43 dB, the floor +1.57 -> -0.31 dB; the walls that see no corner move by <= 0.1 dB.
+
+Exact apertures (C)
+-------------------
+2-core AMD EPYC with AVX-512; ``mirror`` alone on the machine, ``cost`` beside a test run.
+
+``mirror``: left - right within 0.10 dB for C at 0-45 degrees and x = 0-0.4 m (A 0.22, B 0.18 dB; the
+array's elements are not symmetric about the plane, so not 0); a new pose (everything rendered again,
+as for a moving radar) costs C 0.17-0.32 s of wall for the two reflectors against 0.05-0.09 s for A
+and B (the apertures clipped, the pieces cast and integrated; a radar at rest keeps the pieces).
+
+``cost --frames 9`` (B then C, alternating): circle walk steady C/B wall 1.008, CPU 0.994, first frame
+wall 1.105 (no plane-faced object in the scene; every object's ``|h|^2`` in frame 0 within 0.05 dB);
+furnished room with three walkers steady wall 1.004, CPU 1.019, first frame wall 1.049, every object
+within 0.05 dB but the monitor's glass, the room's one plane-faced object, +2.94 dB (its own chains
+now over their exact apertures; its label also holds the sampled chains from other surfaces that end
+on it).
 """
 
 from __future__ import annotations
@@ -86,6 +107,18 @@ def db(x):
     return 10 * np.log10(x)
 
 
+#: The engines compared: A the chains at the first bounce's density, B the bounce rule (sampled faces), C the
+#: defaults (the rule, and the plane-faced objects' own chains over their exact apertures).
+VARIANTS = {"A": {"po_bounce_rule": False, "po_flat_faces": False}, "B": {"po_flat_faces": False}, "C": {}}
+
+
+def engine_of(name: str, **options):
+    """The path engine of variant ``name`` (:data:`VARIANTS`) with ``options``."""
+    from sionnafmcw.engines import PathEngine
+
+    return PathEngine(**VARIANTS[name], **options)
+
+
 def channel_power(echoes, radar, label=None) -> float:
     """Mean over element pairs of the coherent channel's power (the contributions of ``label``)."""
     sel = slice(None) if label is None else echoes.labels[0, 0] == label
@@ -103,7 +136,6 @@ def issue(args):
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
     from sionnafmcw.animation.model import RadarPose
-    from sionnafmcw.engines import PathEngine
     from sionnafmcw.scenes.registry import build
 
     radar = RadarConfig.preset("walk-77ghz")
@@ -113,9 +145,9 @@ def issue(args):
     print("car_park, first pair; dB; L/R: left/right reflector; sum|a|^2 (the issue's figure) and |h|^2 (the echo)")
     for depth in (2, 3):
         for centred in (False, True):
-            for name, on in (("A", False), ("B", True)):
+            for name in VARIANTS:
                 for n in (16, 48, 64):
-                    engine = PathEngine(po_samples_across=n, max_depth=depth, po_bounce_rule=on)
+                    engine = engine_of(name, po_samples_across=n, max_depth=depth)
                     row = []
                     for x in (0.0, 0.1, 0.2, 0.3, 0.4):
                         y = -radar.phase_centre[1] if centred else 0.0
@@ -132,33 +164,35 @@ def mirror(args):
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
     from sionnafmcw.animation.model import RadarPose
-    from sionnafmcw.engines import PathEngine
 
     radar = RadarConfig.preset("walk-77ghz")
     folder = pathlib.Path(tempfile.mkdtemp(prefix="po_bounces_"))
     print("mirror-image 0.1 m trihedrals at (3, +-1.5) m, three bounces; left, right |h|^2 (dB) and left - right")
     for aspect in (0, 15, 30, 45):
         anim = load_animation(mirror_pair_scene(folder / f"pair_{aspect}", 0.1, 3.0, 1.5, np.deg2rad(aspect)))
-        for name, on in (("A", False), ("B", True)):
-            engine = PathEngine(max_depth=3, diffuse=False, po_bounce_rule=on)
-            row = []
+        for name in VARIANTS:
+            engine = engine_of(name, max_depth=3, diffuse=False)
+            row, seconds = [], []
             for x in (0.0, 0.2, 0.4):
                 pose = RadarPose(np.array([x, -radar.phase_centre[1], 1.0]), np.zeros(3))
+                t0 = time.perf_counter()
                 e = engine.echoes(anim, radar, 0, radar_pose=pose)
+                seconds.append(time.perf_counter() - t0)
                 left, right = (db(channel_power(e, radar, lab)) for lab in ("left", "right"))
                 row.append(f"x={x:.1f}: {left:7.2f} {right:7.2f} {left - right:+5.2f}")
-            print(f"aspect {aspect:2d} deg {name}  " + "   ".join(row), flush=True)
+            print(f"aspect {aspect:2d} deg {name}  " + "   ".join(row)
+                  + f"   ({np.mean(seconds[1:]):.2f} s a new pose)", flush=True)
 
 
 def grid(args):
     from reflector_scenes import reflector_scene
     from sionnafmcw import RadarConfig
     from sionnafmcw.animation import load_animation
-    from sionnafmcw.engines import PathEngine
 
     radar = RadarConfig.preset("walk-77ghz").replace(antenna_pattern="iso", num_chirps=16)
     folder = pathlib.Path(tempfile.mkdtemp(prefix="po_bounces_"))
-    print("|h|^2 dB: converged (B at po_samples_across=128); A and B at the default 16 minus it; samples per bounce")
+    print("|h|^2 dB: converged (C at po_samples_across=128); A, B and C at the default 16 minus it; samples per "
+          "bounce of the sampled render")
     for kind in args.kinds:
         depth = 3 if kind == "trihedral" else 2
         for leg in (0.05, 0.1, 0.3):
@@ -167,22 +201,22 @@ def grid(args):
                     anim = load_animation(reflector_scene(folder / f"{kind}_{leg}_{distance}_{aspect}", kind, leg,
                                                           distance, np.deg2rad(aspect)))
                     out = {}
-                    for name, on, n in (("ref", True, 128), ("A", False, 16), ("B", True, 16)):
-                        engine = PathEngine(po_samples_across=n, max_depth=depth, diffuse=False, po_bounce_rule=on)
+                    for name, variant, n in (("ref", "C", 128), ("A", "A", 16), ("B", "B", 16), ("C", "C", 16)):
+                        engine = engine_of(variant, po_samples_across=n, max_depth=depth, diffuse=False)
                         t0 = time.perf_counter()
                         e = engine.echoes(anim, radar, 0)
                         out[name] = (db(channel_power(e, radar)), [b.num_samples for b in engine.last_renders],
                                      time.perf_counter() - t0)
                     ref = out["ref"][0]
                     print(f"{kind:9s} {leg:4.2f} m {distance:4.1f} m {aspect:2d} deg  converged {ref:8.2f}  "
-                          f"A {out['A'][0] - ref:+6.2f} {out['A'][1]}  B {out['B'][0] - ref:+6.2f} {out['B'][1]}",
-                          flush=True)
+                          f"A {out['A'][0] - ref:+6.2f} {out['A'][1]}  B {out['B'][0] - ref:+6.2f} {out['B'][1]}  "
+                          f"C {out['C'][0] - ref:+6.2f}", flush=True)
 
 
 def cost(args):
     from furnished_room import FURNITURE
     from walk_frames import cpu_seconds
-    from sionnafmcw import PathEngine, RadarConfig, load_animation, scenes
+    from sionnafmcw import RadarConfig, load_animation, scenes
 
     folder = pathlib.Path(args.scenes) if args.scenes else pathlib.Path(tempfile.mkdtemp(prefix="po_bounces_"))
     paths = {"walk": folder / "circle_walk",
@@ -195,25 +229,36 @@ def cost(args):
         if not (path / "animation.json").is_file():
             scenes.build(params[scene][0], path, **params[scene][1])
         anim = load_animation(path)
-        engines = {"A": PathEngine(po_bounce_rule=False), "B": PathEngine()}
-        rows = {"A": [], "B": []}
+        first, second = args.pair
+        engines = {first: engine_of(first), second: engine_of(second)}
+        rows = {first: [], second: []}
+        echoes = {}
         for f in range(args.frames):
-            for name in (("A", "B") if f % 2 == 0 else ("B", "A")):
+            for name in ((first, second) if f % 2 == 0 else (second, first)):
                 w0, c0 = time.perf_counter(), cpu_seconds()
-                engines[name].echoes(anim, radar, f)
+                e = engines[name].echoes(anim, radar, f)
                 w1, c1 = time.perf_counter(), cpu_seconds()
+                if f == 0:
+                    echoes[name] = e
                 stats = engines[name].last_stats
                 rows[name].append((w1 - w0, c1 - c0, stats.figures.get("po_samples", 0),
                                    stats.figures.get("static_po_samples", 0)))
-        print(f"{scene}: {args.frames} frames, A and B alternating")
-        for name in ("A", "B"):
+        print(f"{scene}: {args.frames} frames, {first} and {second} alternating")
+        for name in (first, second):
             r = np.array(rows[name])
             print(f"  {name}: first frame {r[0, 0]:.2f} s wall {r[0, 1]:.2f} s CPU, static PO samples "
                   f"{int(r[0, 3])}; steady {r[1:, 0].mean():.3f} s wall {r[1:, 1].mean():.3f} s CPU per frame, "
                   f"frame PO samples {r[1:, 2].mean():.0f}")
-        a, b = np.array(rows["A"]), np.array(rows["B"])
-        print(f"  B/A: first frame wall {b[0, 0] / a[0, 0]:.3f}; steady wall {b[1:, 0].mean() / a[1:, 0].mean():.3f}, "
-              f"CPU {b[1:, 1].mean() / a[1:, 1].mean():.3f}", flush=True)
+        labels = sorted(set(np.unique(echoes[first].labels[0, 0])) | set(np.unique(echoes[second].labels[0, 0])))
+        change = {lab: db(channel_power(echoes[second], radar, lab) / channel_power(echoes[first], radar, lab))
+                  for lab in labels}
+        moved = {lab: d for lab, d in change.items() if abs(d) > 0.05}
+        print(f"  frame 0, {second} - {first} per object (|h|^2, dB): "
+              + (", ".join(f"{lab} {d:+.2f}" for lab, d in moved.items()) or "none moved by more than 0.05")
+              + f"; the other {len(change) - len(moved)} within 0.05")
+        a, b = np.array(rows[first]), np.array(rows[second])
+        print(f"  {second}/{first}: first frame wall {b[0, 0] / a[0, 0]:.3f}; steady wall "
+              f"{b[1:, 0].mean() / a[1:, 0].mean():.3f}, CPU {b[1:, 1].mean() / a[1:, 1].mean():.3f}", flush=True)
 
 
 def main(argv=None) -> int:
@@ -222,6 +267,8 @@ def main(argv=None) -> int:
     parser.add_argument("--kinds", nargs="+", default=["trihedral", "dihedral"], choices=("trihedral", "dihedral"))
     parser.add_argument("--frames", type=int, default=13, help="cost: frames per scene (the first apart)")
     parser.add_argument("--scenes", default=None, help="cost: folder of the scenes (built there when missing)")
+    parser.add_argument("--pair", nargs=2, default=["B", "C"], choices=tuple(VARIANTS),
+                        help="cost: the two variants that take turns (default: B then C, the exact apertures' cost)")
     args = parser.parse_args(argv)
     {"issue": issue, "mirror": mirror, "grid": grid, "cost": cost}[args.mode](args)
     return 0

@@ -90,7 +90,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .polygon_integral import polygon_normals, polygon_phase_integral
+from .polygon_integral import cross, polygon_normals, polygon_phase_integral
 
 #: Second-order phase remainder (rad) across a near-field triangle at the default ``max_edge`` (module docstring).
 NEAR_FIELD_PHASE = 1e-3
@@ -110,7 +110,8 @@ def clip_half_space(polygon, normal, point) -> np.ndarray:
     if len(poly) == 0:
         return poly
     d = (poly - point) @ normal
-    size = float(np.max(np.linalg.norm(poly - poly.mean(axis=0), axis=1))) * np.linalg.norm(normal)
+    spread = poly - poly.mean(axis=0)
+    size = float(np.sqrt(np.max(np.sum(spread * spread, axis=1)) * (normal @ normal)))
     d = np.where(np.abs(d) <= PLANE_TOLERANCE * size, 0.0, d)
     if np.all(d >= 0):
         return poly
@@ -135,8 +136,8 @@ def _cone_planes(source, polygon):
     centre = polygon.mean(axis=0)
     planes = []
     for i in range(len(polygon)):
-        m = np.cross(polygon[i] - source, polygon[(i + 1) % len(polygon)] - source)
-        if np.linalg.norm(m) == 0:
+        m = cross(polygon[i] - source, polygon[(i + 1) % len(polygon)] - source)
+        if not np.any(m):
             return None
         planes.append(m if m @ (centre - source) >= 0 else -m)
     return planes

@@ -76,12 +76,23 @@ class PolygonError(ValueError):
     """Polygons or wave vectors of the wrong shape; the message names the parameter."""
 
 
+def cross(a, b) -> np.ndarray:
+    r""":math:`\mathbf a\times\mathbf b` over the last axis (length 3), broadcast: numpy's ``cross`` without its
+    axis handling, which dominates on the small arrays the polygon clipping works on."""
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1]
+    out[..., 1] = a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2]
+    out[..., 2] = a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]
+    return out
+
+
 def polygon_normals(vertices) -> tuple[np.ndarray, np.ndarray]:
     r"""``(normal [..., 3], area [...])``: Newell's unit normal of the polygons ``vertices [..., V, 3]``
     (counter-clockwise about it) and their area; a degenerate polygon gets area 0 and normal 0."""
     v = np.asarray(vertices, float)
-    twice = np.sum(np.cross(v, np.roll(v, -1, axis=-2)), axis=-2)
-    norm = np.linalg.norm(twice, axis=-1)
+    twice = np.sum(cross(v, np.roll(v, -1, axis=-2)), axis=-2)
+    norm = np.sqrt(np.sum(twice * twice, axis=-1))
     normal = np.divide(twice, norm[..., None], out=np.zeros_like(twice), where=norm[..., None] > 0)
     return normal, norm / 2
 
@@ -96,7 +107,7 @@ def _series(v, w, normal, centre):
     polygons ``v [P, V, 3]``, ``w [P, 3]``, fanned from ``centre [P, 3]``."""
     p = v - centre[:, None]
     q = np.roll(p, -1, axis=1)
-    area = 0.5 * np.einsum("pvi,pi->pv", np.cross(p, q), normal)          # [P, V] signed fan triangles
+    area = 0.5 * np.einsum("pvi,pi->pv", cross(p, q), normal)          # [P, V] signed fan triangles
     a1 = np.einsum("pvi,pi->pv", p, w)
     a2 = np.einsum("pvi,pi->pv", q, w)
     # h_m over the variables (0, a1, a2): the fan's apex has phase 0, so h_m(0, a1, a2) = h_m(a1, a2)
@@ -149,7 +160,7 @@ def polygon_phase_integral(vertices, w) -> np.ndarray:
         ve, we, ne = v[e], w[e], normal[e]
         edges = np.roll(ve, -1, axis=1) - ve
         mids = ve + edges / 2
-        weight = np.einsum("pi,pvi->pv", we, np.cross(edges, ne[:, None]))
+        weight = np.einsum("pi,pvi->pv", we, cross(edges, ne[:, None]))
         along = np.einsum("pi,pvi->pv", we, edges)
         # phases relative to the vertex mean, so that the sum's terms carry no large common phase
         phase = np.einsum("pi,pvi->pv", we, mids - centre[e][:, None])
@@ -158,4 +169,4 @@ def polygon_phase_integral(vertices, w) -> np.ndarray:
     return out.reshape(shape)
 
 
-__all__ = ["PolygonError", "SERIES_RADIUS", "SERIES_TERMS", "polygon_normals", "polygon_phase_integral"]
+__all__ = ["PolygonError", "SERIES_RADIUS", "SERIES_TERMS", "cross", "polygon_normals", "polygon_phase_integral"]

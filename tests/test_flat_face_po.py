@@ -244,13 +244,15 @@ def test_double_bounce_apertures_against_rays(aspect):
 
 
 @pytest.mark.slow
-def test_engine_against_the_exact_flat_face_echo(tmp_path):
-    """The path engine's defaults on a 0.1 m trihedral at 3 m (``benchmarks/po_flat_faces.py``): at 0 and 30
-    degrees off its axis the whole echo is within the issue's 1 dB of the exact flat-face PO of every
-    chain, and the first bounce's error is below the rule's share eta = ERROR_SHARE of the echo, as the
-    outline bound of :mod:`sionnafmcw.engines.bounce_sampling` applied to bounce 1 says; at 45 degrees,
-    where the echo is 50 dB below the axis's and the first bounce has no specular point, that bound
-    exceeds the share: the first bounce's outline is not resolved at the defaults."""
+def test_sampled_render_against_the_exact_flat_face_echo(tmp_path):
+    """The path engine's sampled render (``po_flat_faces=False``: the reflector's faces sampled by ray tubes
+    like every other surface) on a 0.1 m trihedral at 3 m (``benchmarks/po_flat_faces.py``): at 0 and 30
+    degrees off its axis the whole echo is within 1 dB of the exact flat-face PO of every chain, and the
+    first bounce's error is below the rule's share eta = ERROR_SHARE of the echo, as the outline bound of
+    :mod:`sionnafmcw.engines.bounce_sampling` applied to bounce 1 says; at 45 degrees, where the echo is
+    50 dB below the axis's and the first bounce has no specular point, that bound exceeds the share: the
+    first bounce's outline is not resolved by sampling (what the default, the exact apertures of
+    :mod:`sionnafmcw.engines.flat_faces`, is for: ``tests/test_flat_faces.py``)."""
     import sys
     from pathlib import Path
 
@@ -266,7 +268,7 @@ def test_engine_against_the_exact_flat_face_echo(tmp_path):
     for aspect in (0.0, 30.0, 45.0):
         anim = load_animation(reflector_scene(tmp_path / f"t{aspect:.0f}", "trihedral", 0.1, 3.0, np.deg2rad(aspect)))
         faces = reflector_faces("trihedral", (3.0, 0.0, 1.0), 0.1, np.deg2rad(aspect), (0.0, 0.0, 1.0))
-        engine = PathEngine(max_depth=3, diffuse=False)
+        engine = PathEngine(max_depth=3, diffuse=False, po_flat_faces=False)
         engine.echoes(anim, radar, 0)
         h, _, gamma = bounce_channels(engine.last_renders, radar.wavelength)
         chains = chain_channels(faces, engine.last_renders[0].source[0], radar.wavelength, 3, gamma)

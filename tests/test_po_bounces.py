@@ -38,7 +38,9 @@ def power(echoes, radar, label=None) -> float:
 def test_mirror_image_trihedrals_agree(tmp_path, aspect):
     """Two 0.1 m trihedrals, mirror images in the plane y = 0, 3 m ahead and 1.5 m to either side, turned
     ``aspect`` degrees off their axis; the radar's phase centre on that plane at 0, 0.2 and 0.4 m along the
-    lane: both echoes within 0.5 dB (each render's grid falls differently on the two)."""
+    lane: both echoes within 0.2 dB, twice what each may be off the exact flat-face PO
+    (``tests/test_flat_faces.py``: 0.1 dB); their apertures' grids fall differently on the two. (The issue
+    asked 0.5 dB; the sampled render, ``po_flat_faces=False``, reaches 0.48 dB at 45 degrees.)"""
     anim = load_animation(mirror_pair_scene(tmp_path / "pair", 0.1, 3.0, 1.5, np.deg2rad(aspect)))
     engine = PathEngine(max_depth=3, diffuse=False)
     for x in (0.0, 0.2, 0.4):
@@ -46,7 +48,7 @@ def test_mirror_image_trihedrals_agree(tmp_path, aspect):
         echoes = engine.echoes(anim, RADAR, 0, radar_pose=pose)
         left, right = power(echoes, RADAR, "left"), power(echoes, RADAR, "right")
         assert left > 0 and right > 0
-        assert abs(db(left / right)) < 0.5, (x, db(left), db(right))
+        assert abs(db(left / right)) < 0.2, (x, db(left), db(right))
 
 
 def _converged(tmp_path, kind, leg, distance, aspect):
@@ -61,19 +63,22 @@ def _converged(tmp_path, kind, leg, distance, aspect):
 
 @pytest.mark.parametrize("kind, leg, distance, aspect", [
     ("trihedral", 0.1, 1.0, 30), ("trihedral", 0.05, 3.0, 15), ("trihedral", 0.3, 10.0, 0),
-    ("dihedral", 0.3, 1.0, 30), ("dihedral", 0.1, 3.0, 15), ("dihedral", 0.05, 10.0, 0)])
+    ("trihedral", 0.1, 10.0, 45), ("trihedral", 0.3, 3.0, 45),
+    ("dihedral", 0.3, 1.0, 30), ("dihedral", 0.1, 3.0, 15), ("dihedral", 0.05, 10.0, 0), ("dihedral", 0.3, 1.0, 45)])
 def test_defaults_give_the_converged_echo(tmp_path, kind, leg, distance, aspect):
-    """Trihedrals (three bounces) and dihedrals (two) of 0.05-0.3 m at 1-10 m, 0-30 degrees off their axis
-    (turned about the vertical): the defaults within 1 dB of the converged echo (before the rule: 3.0 dB
-    off for the 0.1 m trihedral at 1 m, 30 degrees)."""
+    """Trihedrals (three bounces) and dihedrals (two) of 0.05-0.3 m at 1-10 m, 0-45 degrees off their axis
+    (turned about the vertical): the defaults within 1 dB of the converged echo (the sampled render before
+    the bounce rule: 3.0 dB off for the 0.1 m trihedral at 1 m, 30 degrees; with it, and without the exact
+    apertures, -10.4 dB for the 0.1 m trihedral at 10 m, 45 degrees: ``benchmarks/po_flat_faces.py``)."""
     _converged(tmp_path, kind, leg, distance, aspect)
 
 
 @pytest.mark.slow
 @pytest.mark.parametrize("kind, leg, distance, aspect", [
     ("trihedral", 0.3, 1.0, 30), ("trihedral", 0.3, 1.0, 15), ("trihedral", 0.05, 10.0, 30),
-    ("trihedral", 0.1, 3.0, 0), ("dihedral", 0.3, 10.0, 30), ("dihedral", 0.05, 1.0, 30),
-    ("dihedral", 0.1, 10.0, 15), ("dihedral", 0.3, 3.0, 0)])
+    ("trihedral", 0.1, 3.0, 0), ("trihedral", 0.1, 1.0, 45), ("trihedral", 0.05, 1.0, 45),
+    ("dihedral", 0.3, 10.0, 30), ("dihedral", 0.05, 1.0, 30), ("dihedral", 0.1, 10.0, 15), ("dihedral", 0.3, 3.0, 0),
+    ("dihedral", 0.1, 1.0, 45)])
 def test_defaults_give_the_converged_echo_more(tmp_path, kind, leg, distance, aspect):
     """More of the grid of :func:`test_defaults_give_the_converged_echo`."""
     _converged(tmp_path, kind, leg, distance, aspect)
@@ -151,7 +156,7 @@ def test_neighbour_search_and_chain_ids_are_the_plain_searches(tmp_path):
     from sionnafmcw.engines import bounce_sampling as bs
 
     anim = load_animation(reflector_scene(tmp_path / "tri", "trihedral", 0.1, 1.0, np.deg2rad(30)))
-    engine = PathEngine(max_depth=3, diffuse=False)
+    engine = PathEngine(max_depth=3, diffuse=False, po_flat_faces=False)   # the rule's own splits on the reflector
     engine.echoes(anim, ISO, 0)
     renders = engine.last_renders
     first = renders[0]

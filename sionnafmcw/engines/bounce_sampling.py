@@ -121,17 +121,19 @@ def follow(world, first, objects, rotation, wavelength: float, depth: int, group
 
 
 def resolved_bounces(world, first, objects, rotation, wavelength: float, depth: int, samples_across: int,
-                     group: str = "all", max_splits: int | None = None) -> list:
+                     group: str = "all", max_splits: int | None = None, exact_ids=()) -> list:
     """The renders of bounces 1 to ``depth`` with every exit aperture resolved (module docstring): the
     chains of ``first`` followed, the boundary tubes of the apertures whose bound is not met split and
     their chains followed (the other tubes' chains are kept), until every bound holds or
-    ``max_splits`` rounds (default :data:`MAX_SPLITS`; 0: the chains at the first bounce's density) are done."""
+    ``max_splits`` rounds (default :data:`MAX_SPLITS`; 0: the chains at the first bounce's density) are done;
+    the own chains of the objects ``exact_ids`` (integrated over their exact apertures,
+    :mod:`~sionnafmcw.engines.flat_faces`) are not split."""
     renders = follow(world, first, objects, rotation, wavelength, depth, group)
     if len(renders) < 2 or max_splits == 0 or not plane_chains(renders, objects):
         return renders
     channels = monostatic_channels(renders, wavelength)
     for _ in range(MAX_SPLITS if max_splits is None else max_splits):
-        split, empty = under_resolved(renders, objects, samples_across, wavelength, channels)
+        split, empty = under_resolved(renders, objects, samples_across, wavelength, channels, exact_ids)
         if split.size == 0 and empty.size == 0:
             break
         new = follow(world, quartered(world, renders[0], split, objects, rotation, wavelength, group, empty),
@@ -250,8 +252,10 @@ def chain_ids(parent_chain: np.ndarray, codes: np.ndarray) -> np.ndarray:
 def monostatic_channels(renders, wavelength: float, origin=None) -> list:
     r"""Per render, every sample's share :math:`h_i = a_i e^{-j2\pi c\tau_i/\lambda}` ``[P]`` of the channel of
     an isotropic element at the render origin (transmitting and receiving), in-sample factor included
-    (:func:`~.po_render.chain_po_gains`): the echo the error bound is measured against."""
+    (:func:`~.po_render.chain_po_gains`; for the cut pieces of :mod:`~sionnafmcw.engines.flat_faces`, their
+    outline's, :func:`~.flat_faces.outline_factor`): the echo the error bound is measured against."""
     from ..constants import SPEED_OF_LIGHT
+    from .flat_faces import outline_factor
     from .po_render import chain_po_gains
 
     origin = renders[0].source[:1] if origin is None else origin
@@ -260,17 +264,22 @@ def monostatic_channels(renders, wavelength: float, origin=None) -> list:
         if bounce.num_samples == 0:
             out.append(np.zeros(0, complex))
             continue
-        a, tau, _ = chain_po_gains(bounce, origin, origin, wavelength)
+        a, tau, _ = chain_po_gains(bounce, origin, origin, wavelength, in_sample_phase=bounce.outline is None)
+        if bounce.outline is not None:
+            images = np.einsum("pij,mj->mpi", bounce.image_linear, origin) + bounce.image_offset[None]
+            a = a * outline_factor(bounce.outline, bounce.samples.position, bounce.samples.normal, images, origin,
+                                   wavelength)
         out.append(a[0, 0] * np.exp(-2j * np.pi * SPEED_OF_LIGHT / wavelength * tau[0, 0]))
     return out
 
 
-def under_resolved(renders, objects, samples_across: int, wavelength: float, channels=None):
+def under_resolved(renders, objects, samples_across: int, wavelength: float, channels=None, exact_ids=()):
     r"""The first-bounce tubes to split (module docstring): ``(split, empty)``, the indices into
     ``renders[0]`` of the boundary tubes of every exit aperture (bounces 2 and on) whose bound
     :math:`E_g \le \eta|H_o|` fails and of their neighbours across the outline, and the ``[K, 2]``
     (tube, side) pairs of those boundary tubes whose neighbouring grid cell holds no tube.
-    ``channels``: :func:`monostatic_channels` of ``renders`` (computed when None)."""
+    ``channels``: :func:`monostatic_channels` of ``renders`` (computed when None); the apertures of chains
+    that stay on one of the objects ``exact_ids`` are left as they are (their echo is not the tubes')."""
     first = renders[0]
     p = first.num_samples
     if len(renders) < 2 or p == 0 or renders[1].num_samples == 0:
@@ -308,6 +317,8 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float, cha
         label = np.zeros(groups, dtype=np.int64)
         label[chain] = label_of[d]
         take = boundary & plane & (bound > eta * echo[label])[chain]
+        if len(exact_ids) and bounce.one_object is not None:
+            take &= ~np.isin(bounce.one_object, np.fromiter(exact_ids, np.int64))
         if not np.any(take):
             continue
         split[root[take]] = True

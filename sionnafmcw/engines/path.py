@@ -305,6 +305,11 @@ class PathEngine(Engine):
         may exceed a share of the object's echo); False: the chains at the first bounce's density (the
         engine before the rule, for comparisons: a corner reflector off its axis is then off by up to
         3 dB, a room's corners by up to 8 dB).
+    po_flat_faces : bool
+        True (default): the own chains of every object made of a few convex plane faces (corner
+        reflectors, plates, small boxes: :mod:`~sionnafmcw.engines.flat_faces`) integrated over their
+        exact apertures instead of sampled; False: sampled like every other surface (a corner reflector
+        45 degrees off its axis is then off by up to 10 dB).
 
     Notes
     -----
@@ -337,7 +342,7 @@ class PathEngine(Engine):
                  deterministic: bool = True, array_model: str = "coherent", deduplicate: bool = True,
                  physical_optics: bool = True, multibounce: str = "po", random_phase: bool = True,
                  po_samples_across: int = 16, po_merge: bool = True, static_scene: bool = True,
-                 cpi_motion: str = "frozen", po_bounce_rule: bool = True):
+                 cpi_motion: str = "frozen", po_bounce_rule: bool = True, po_flat_faces: bool = True):
         if label not in self.LABELS:
             raise PathEngineError(f"PathEngine: label={label!r} is unknown; choose one of {', '.join(self.LABELS)}")
         if array_model not in self.ARRAY_MODELS:
@@ -380,10 +385,13 @@ class PathEngine(Engine):
         self.static_scene = bool(static_scene)
         self.cpi_motion = cpi_motion
         self.po_bounce_rule = bool(po_bounce_rule)
+        self.po_flat_faces = bool(po_flat_faces)
         self._motion = None
         self._solver = PathSolver(deterministic=self.deterministic)
         self.last_paths: TracedPaths | None = None
         self.last_renders: list = []
+        self.last_exact_renders: list = []
+        self.last_exact_ids: frozenset = frozenset()
         self._last_pieces: dict = {}
 
     def _settings(self) -> dict:
@@ -395,7 +403,7 @@ class PathEngine(Engine):
                 "physical_optics": self.physical_optics, "multibounce": self.multibounce,
                 "random_phase": self.random_phase, "po_samples_across": self.po_samples_across,
                 "po_merge": self.po_merge, "static_scene": self.static_scene, "cpi_motion": self.cpi_motion,
-                "po_bounce_rule": self.po_bounce_rule}
+                "po_bounce_rule": self.po_bounce_rule, "po_flat_faces": self.po_flat_faces}
 
     @property
     def coherent(self) -> bool:
@@ -619,8 +627,9 @@ class PathEngine(Engine):
             objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
             po = StaticPO.build(state.surfaces, objects, centre, rot, wavelength, self._po_depth,
                                 self.po_samples_across,
-                                                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
-                                lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"), self._max_splits)
+                                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength),
+                                lambda b, c: self._po_merge(radar, b, c, centre, rot, "static"), self._max_splits,
+                                self._exact_ids(objects))
         parts = [e for e in (traced, None if po is None else po.echoes) if e is not None]
         # one copy of the static echoes: the block's arrays joined once, the PO echoes and the merge's cells
         # then views of them (the parts' own arrays freed), so the synthesis reads the block as views too
@@ -639,6 +648,13 @@ class PathEngine(Engine):
     def _max_splits(self) -> int | None:
         """Rounds of :func:`~.bounce_sampling.resolved_bounces`: its default with ``po_bounce_rule``, else none."""
         return None if self.po_bounce_rule else 0
+
+    def _exact_ids(self, objects) -> frozenset:
+        """Sionna ids of the objects whose own chains :mod:`~sionnafmcw.engines.flat_faces` integrates (none
+        without ``po_flat_faces``)."""
+        from .flat_faces import exact_objects
+
+        return frozenset(objects[k].shape_id for k in exact_objects(objects)) if self.po_flat_faces else frozenset()
 
     @property
     def _po_depth(self) -> int:
@@ -663,7 +679,16 @@ class PathEngine(Engine):
         :func:`~sionnafmcw.engines.po_render.chain_po_gains`, and the radar's ego-Doppler when it moves."""
         from .po_kernel import element_pair_po
 
-        a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
+        if bounce.outline is None:
+            a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
+        else:   # cut pieces of an exact aperture: point samples times their outline's factor
+            from .flat_faces import outline_factor
+
+            a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern,
+                                              in_sample_phase=False)
+            images = np.einsum("pij,mj->mpi", bounce.image_linear, tx_w) + bounce.image_offset[None]
+            a *= outline_factor(bounce.outline, bounce.samples.position, bounce.samples.normal, images, rx_w,
+                                wavelength)
         doppler = with_ego_doppler(doppler, self._motion, bounce.first_point, bounce.samples.position, wavelength)
         return a, tau, doppler, bounce.samples.labels
 
@@ -695,12 +720,15 @@ class PathEngine(Engine):
         cached (``static``), only the frame's own renders (what the moving objects change) and the
         blocked static samples (``removed``, opposite sign). Returns ``(echoes, removed, figures)``."""
         from .bounce_sampling import resolved_bounces
+        from .flat_faces import exact_objects, exact_renders
         from .po_render import render
 
         t0 = time.perf_counter()
         world = self._state.surfaces
         objects, centre, rot, tx_w, rx_w = self._po_geometry(animation, radar, pose, rigid)
         depth = self._po_depth
+        exact = exact_objects(objects) if self.po_flat_faces else {}
+        exact_ids = self.last_exact_ids = frozenset(objects[k].shape_id for k in exact)
         removed, num_removed = None, 0
         origin_motion = {}
         if self._motion.quadratic or self._motion.radar_moves:
@@ -711,18 +739,26 @@ class PathEngine(Engine):
         if static is not None and static.po is not None:
             renders, removed, num_removed = static.po.frame(
                 world, objects, centre, rot, wavelength, depth, self.po_samples_across,
-                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc, self._max_splits)
+                lambda b: self._po_contributions(b, radar, tx_w, rx_w, rot, wavelength), radar.fc, self._max_splits,
+                exact_ids)
             self.last_renders = [*static.po.renders, *renders]
         else:
             first = render(world, objects, centre, rot, wavelength, samples_across=self.po_samples_across,
                            **origin_motion)
             renders = resolved_bounces(world, first, objects, rot, wavelength, depth, self.po_samples_across,
-                                       max_splits=self._max_splits)
+                                       max_splits=self._max_splits, exact_ids=exact_ids)
             self.last_renders = renders
+        if exact:
+            self.last_exact_renders = exact_renders(world, objects, exact, centre, rot, wavelength, depth,
+                                                    self.po_samples_across, origin_motion=tuple(origin_motion.values())
+                                                    or None)
+        else:
+            self.last_exact_renders = []
         echoes = []
         num_samples = 0
-        for b in renders:
-            keep = b.carries_po()
+        # the tube renders without the exact objects' own chains, then those chains' exact pieces
+        for b, keep in [*((b, b.carries_po(exact_ids)) for b in renders),
+                        *((b, b.carries_po()) for b in self.last_exact_renders)]:
             if not np.any(keep):
                 continue
             num_samples += int(keep.sum())

@@ -384,7 +384,10 @@ class Render:
     motion within the CPI (rendered with the placements' accelerations, else None):
     ``acceleration [P, 3]`` of the samples and ``source_velocity``, ``source_acceleration`` ``[P, 3]``
     of the image source (:func:`~sionnafmcw.kinematics.mirror_image` through the previous bounces'
-    mirrors; the render's origin's on bounce 1).
+    mirrors; the render's origin's on bounce 1). ``one_object [P]``: the Sionna object id of the
+    sample's object where every bounce of its chain was on it, else -1; ``outline [P, W, 3]``: the
+    convex polygon each sample stands for where it is not its footprint parallelogram (the cut pieces
+    of :mod:`~sionnafmcw.engines.flat_faces`), else None.
     """
 
     samples: SurfaceSamples
@@ -406,6 +409,8 @@ class Render:
     acceleration: np.ndarray | None = None
     source_velocity: np.ndarray | None = None
     source_acceleration: np.ndarray | None = None
+    one_object: np.ndarray | None = None
+    outline: np.ndarray | None = None
 
     @property
     def num_samples(self) -> int:
@@ -431,7 +436,8 @@ class Render:
                        first_velocity=pick(self.first_velocity), doppler_inner=pick(self.doppler_inner),
                        second_direction=pick(self.second_direction), parent=pick(self.parent),
                        acceleration=pick(self.acceleration), source_velocity=pick(self.source_velocity),
-                       source_acceleration=pick(self.source_acceleration))
+                       source_acceleration=pick(self.source_acceleration), one_object=pick(self.one_object),
+                       outline=pick(self.outline))
 
     def reflected(self) -> tuple[np.ndarray, np.ndarray]:
         r"""The shading normals turned to the incident side, :math:`\hat{\mathbf n}` with
@@ -452,12 +458,16 @@ class Render:
             out.append((d / np.linalg.norm(d, axis=1, keepdims=True)) @ np.asarray(rotation, float))
         return out[0], out[-1]   # bounce 1: one array for both (the first point is the sample)
 
-    def carries_po(self) -> np.ndarray:
+    def carries_po(self, exact_ids=()) -> np.ndarray:
         """``[P]`` bool: the samples with a coherent share, :math:`S < 1` and (from bounce 2 on) a
-        non-zero chain reflection; the others carry no PO echo."""
+        non-zero chain reflection, whose chain does not stay on one of the objects ``exact_ids`` (Sionna
+        object ids: the objects whose own chains :mod:`~sionnafmcw.engines.flat_faces` integrates); the
+        others carry no PO echo."""
         keep = self.samples.scattering_coefficient < 1.0
         if self.depth > 1:
             keep &= np.abs(self.chain_reflection) > 0
+        if len(exact_ids) and self.one_object is not None:
+            keep &= ~np.isin(self.one_object, np.fromiter(exact_ids, np.int64))
         return keep
 
 
@@ -690,7 +700,7 @@ def first_bounce(samples, direction, step_az, step_el, origin, steps, num_rays, 
     out = Render(samples, 1, np.broadcast_to(origin, (p, 3)), np.broadcast_to(np.eye(3), (p, 3, 3)),
                  np.broadcast_to(np.zeros(3), (p, 3)), np.broadcast_to(np.complex128(1.0), (p,)),
                  direction, step_az, step_el, samples.position, samples.velocity, np.broadcast_to(0.0, (p,)), steps,
-                 num_rays)
+                 num_rays, one_object=samples.object_id)
     if acceleration is not None:
         velocity, accel = (None, None) if origin_motion is None else origin_motion
         out.acceleration = acceleration
@@ -740,7 +750,8 @@ def _empty_render(origin, steps, num_rays, depth=1) -> Render:
     z3 = np.zeros((0, 3))
     samples = SurfaceSamples(z3, z3, np.zeros(0), edges=np.zeros((0, 2, 3)), labels=np.zeros(0, dtype=str))
     return Render(samples, depth, z3, np.zeros((0, 3, 3)), z3, np.zeros(0, complex), z3, z3, z3, z3, z3,
-                  np.zeros(0), steps, num_rays, None if depth == 1 else z3, None if depth == 1 else np.zeros(0, np.int64))
+                  np.zeros(0), steps, num_rays, None if depth == 1 else z3, None if depth == 1 else np.zeros(0, np.int64),
+                  one_object=np.zeros(0, np.int64))
 
 
 def reflect(world, previous: Render, objects: list[SceneObject], rotation, wavelength: float,
@@ -789,6 +800,8 @@ def reflect(world, previous: Render, objects: list[SceneObject], rotation, wavel
     out = Render(samples, previous.depth + 1, source, lin, off, chain, direction, s_az, s_el,
                  previous.first_point[idx], previous.first_velocity[idx], inner, previous.step, int(valid.size),
                  second, idx)
+    if previous.one_object is not None:
+        out.one_object = np.where(previous.one_object[idx] == samples.object_id, samples.object_id, -1)
     if previous.acceleration is not None:
         out.acceleration = np.zeros((idx.size, 3)) if acceleration is None else acceleration
         out.source_velocity, out.source_acceleration = _image_motion(previous, idx, n[idx], objects)

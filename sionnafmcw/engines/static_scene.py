@@ -403,12 +403,14 @@ class StaticPO:
 
     @classmethod
     def build(cls, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, merge, max_splits: int | None = None) -> StaticPO:
+              contributions, merge, max_splits: int | None = None, exact_ids=frozenset()) -> StaticPO:
         """Render the static surfaces of ``world`` (``objects``: its :func:`~.po_render.scene_objects`)
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
         ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
-        (no merging); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`."""
+        (no merging); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`; ``exact_ids``: the
+        objects whose own chains carry no PO here (:meth:`~.po_render.Render.carries_po`: integrated per
+        frame by :mod:`~sionnafmcw.engines.flat_faces`)."""
         from ..echoes import Echoes
         from .bounce_sampling import resolved_bounces
         from .po_render import render
@@ -417,7 +419,7 @@ class StaticPO:
         first = render(world, objects, centre, rotation, wavelength, targets=static, group="static",
                        samples_across=samples_across)
         renders = resolved_bounces(world, first, objects, rotation, wavelength, depth, samples_across, "static",
-                                   max_splits)
+                                   max_splits, exact_ids)
         d_first = renders[0].samples.position - renders[0].source
         length_first = np.linalg.norm(d_first, axis=-1)
         incident = (d_first / np.maximum(length_first, 1e-300)[:, None], length_first)
@@ -433,7 +435,7 @@ class StaticPO:
             outgoing.append((k_out, child, length))
         keep, cells, parts = [], [], []
         for b in renders:
-            kept = b.carries_po()
+            kept = b.carries_po(exact_ids)
             keep.append(kept)
             if not np.any(kept):
                 cells.append(None)
@@ -499,14 +501,14 @@ class StaticPO:
         return self.index[d]
 
     def frame(self, world, objects, centre, rotation, wavelength: float, depth: int, samples_across: int,
-              contributions, frequency: float, max_splits: int | None = None):
+              contributions, frequency: float, max_splits: int | None = None, exact_ids=()):
         """What the moving objects change in this frame: ``(renders, removed, num_removed)``.
 
         ``renders``: the frame's own PO renders (the moving objects' render and its reflections,
         and the static chains that now end on a moving object), to be turned into echoes as
         without the cache; ``removed``: :class:`~sionnafmcw.echoes.Echoes` that take the blocked
         static samples out of the static block (None when nothing is blocked); ``num_removed``:
-        how many static samples were taken out.
+        how many static samples were taken out. ``exact_ids``: as :meth:`build`, for the moving objects' chains.
         """
         from ..echoes import Echoes
         from .bounce_sampling import resolved_bounces
@@ -525,7 +527,7 @@ class StaticPO:
         chain = resolved_bounces(world, render(world, objects, centre, rotation, wavelength, targets=moving,
                                                samples_across=samples_across),
                                  objects, rotation, wavelength, depth, samples_across,
-                                 max_splits=max_splits) if moving else []
+                                 max_splits=max_splits, exact_ids=exact_ids) if moving else []
         own = chain[:1]
         frontier = []
         for d in range(1, depth):
