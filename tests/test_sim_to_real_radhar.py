@@ -15,8 +15,8 @@ import pytest
 from sionnafmcw.ti.formats.radhar import Recording, read_recording, write_npz
 from sionnafmcw.validation.har_classifier import (WINDOW, WindowClassifier, frame_features, scores,
                                                   windows)
-from sionnafmcw.validation.sim_to_real_radhar import (FOLDERS, VARIANTS, main, moving_table, read_recordings,
-                                                      session_folds, session_of, variant_spec)
+from sionnafmcw.validation.sim_to_real_radhar import (FOLDERS, VARIANTS, learning_curve, main, moving_table,
+                                                      read_recordings, session_folds, session_of, variant_spec)
 
 RADHAR = next((p / "shared" / "realdata" / "radhar" for p in Path(__file__).resolve().parents
                if (p / "shared" / "realdata" / "radhar").is_dir()), Path("shared/realdata/radhar"))
@@ -150,6 +150,40 @@ def test_bad_arguments_are_one_line_errors(tmp_path, capsys):
                  "--synthetic", str(short)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and str(short) in err and "at most 5 frames, fewer than a window of 10" in err
+
+
+@needs_radhar
+def test_learning_curve_trains_on_subsets_per_class(tmp_path, capsys):
+    """The learning curve on a hand-made set of three 12-frame recordings per class (one 10-frame window each),
+    scored on one real recording per class: per size the draws x seeds accuracies, the training windows of n
+    recordings per class; at the full size every draw is the whole set, so the draws repeat each seed's
+    accuracy exactly; a size beyond a class's recordings is refused naming the class; the command line
+    refuses a malformed size list and the curve with --statistics-only in one line."""
+    rng = np.random.default_rng(0)
+    synthetic = []
+    for c, activity in enumerate(FOLDERS):
+        for i in range(3):
+            frames = np.repeat(np.arange(12), 4)
+            synthetic.append(recording(frames, rng.integers(8 - c, 9 + c, frames.size), rng.uniform(1, 3, frames.size),
+                                       rng.normal(0.2 * c, 0.3, frames.size), activity=activity,
+                                       source=f"s0_20_{activity}_{i}.npz"))
+    real = read_recordings(RADHAR / "train", per_class=1)
+    curve = learning_curve(synthetic, real, 10, 10, [3, 1, 1], draws=2, seeds=2)
+    assert curve["sizes"] == [1, 3] and curve["draws"] == 2 and curve["seeds"] == 2
+    for n in (1, 3):
+        row = curve["per_size"][str(n)]
+        assert len(row["accuracy"]) == 4 and row["train_windows"] == 5 * n
+        assert 0 <= row["min"] <= row["mean"] <= row["max"] <= 1
+    whole = curve["per_size"]["3"]["accuracy"]
+    assert whole[:2] == whole[2:]                       # draw 0 and draw 1: seeds 0, 1 on the same set
+    with pytest.raises(ValueError, match="smallest class"):
+        learning_curve(synthetic, real, 10, 10, [4])
+    for bad, said in ((["--learning-curve", "2,x"], "--learning-curve '2,x'"),
+                      (["--learning-curve", "2", "--statistics-only"], "--statistics-only trains none"),
+                      (["--draws", "0"], "--draws must be")):
+        with pytest.raises(SystemExit):
+            main(["--real", str(RADHAR / "train"), "--out", str(tmp_path / "o"), *bad])
+        assert said in capsys.readouterr().err
 
 
 def test_moving_table_rows():

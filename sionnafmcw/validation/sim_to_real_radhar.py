@@ -37,6 +37,8 @@ trained on it.
   class (``points_in_real_band``, ``zero_velocity_within_0.1``); ``doppler``: ``simulated`` and ``real``,
   per class the shares of the 16 Doppler bins (:func:`doppler_histograms`);
 * ``ablation``: per variant ``off`` and ``accuracy``, ``recall`` (and ``seeds``), or ``error``; ``not_run``;
+* with ``--learning-curve N1,N2,...``, ``learning_curve`` (:func:`learning_curve`): the accuracy on the real
+  windows of classifiers trained on subsets of N items per class;
 * ``synthetic`` (``folder``, ``recordings``, ``per_class``), ``real`` (``folder``, ``recordings``),
   ``window``, ``stride``, ``quick``, ``seconds`` (``generation``, ``total``), ``figures`` (the PNGs).
 
@@ -214,6 +216,39 @@ def seed_spread(results: list) -> dict:
     return {"accuracy": acc, "mean_accuracy": float(np.mean(acc)), "min_accuracy": min(acc),
             "max_accuracy": max(acc),
             "mean_recall": {c: float(np.mean([r["recall"][c] for r in results])) for c in results[0]["recall"]}}
+
+
+def learning_curve(synthetic: list, real: list, window: int, stride: int, sizes, draws: int = 5,
+                   seeds: int = 1) -> dict:
+    """Accuracy on ``real`` against the size of the synthetic training set: for every ``n`` of ``sizes`` (items
+    per class), ``draws`` subsets of ``n`` recordings of each class drawn without replacement from
+    ``synthetic`` (a generator seeded by ``n`` and the draw), each trained with the classifier seeds 0 to
+    ``seeds`` - 1 (:func:`sim_to_real`). ``{"sizes": [...], "draws", "seeds", "per_size": {n: {"accuracy":
+    [...], "mean", "min", "max", "train_windows"}}}``. How the transfer grows with the set's size says
+    whether more of the same simulation would close a gap: a curve still rising at the set's full size
+    does; a flat one does not. A ``ValueError`` names a size larger than a class has recordings."""
+    import numpy as np
+
+    by_class = {c: [r for r in synthetic if r.activity == c] for c in FOLDERS}
+    sizes = sorted({int(n) for n in sizes})
+    smallest = min(len(v) for v in by_class.values())
+    if not sizes or sizes[0] < 1 or sizes[-1] > smallest:
+        raise ValueError(f"learning curve sizes {sizes} must lie in 1..{smallest}, the recordings of the "
+                         f"smallest class ({min(by_class, key=lambda c: len(by_class[c]))})")
+    per_size = {}
+    for n in sizes:
+        acc, windows = [], 0
+        for d in range(int(draws)):
+            rng = np.random.default_rng([n, d])
+            subset = [r for c in FOLDERS for r in (by_class[c][i] for i in
+                                                   np.sort(rng.choice(len(by_class[c]), n, replace=False)))]
+            for k in range(int(seeds)):
+                result = sim_to_real(subset, real, window, stride, seed=k)
+                acc.append(float(result["accuracy"]))
+                windows = result["train_windows"]
+        per_size[str(n)] = {"accuracy": acc, "mean": float(np.mean(acc)), "min": min(acc), "max": max(acc),
+                            "train_windows": int(windows)}
+    return {"sizes": sizes, "draws": int(draws), "seeds": int(seeds), "per_size": per_size}
 
 
 def real_to_real(real: list, window: int, stride: int, folds: int = 2, seed: int = 0) -> dict:
@@ -435,6 +470,10 @@ def main(argv=None) -> int:
     p.add_argument("--classifier-seeds", type=int, default=1, metavar="K",
                    help="train the sim-to-real classifier with seeds 0..K-1 and report each and their mean "
                         "(a small set's accuracy moves with the seed)")
+    p.add_argument("--learning-curve", default="", metavar="N1,N2,...",
+                   help="also train on subsets of N items per class (--draws subsets each, every classifier "
+                        "seed) and report the accuracy per size (metrics.json learning_curve)")
+    p.add_argument("--draws", type=int, default=5, help="subsets drawn per learning-curve size")
     p.add_argument("--statistics-only", action="store_true",
                    help="only the point-cloud statistics, simulated against real (statistics.md, metrics.json, "
                         "doppler.png, frames.png): no classifier, no ceiling, no ablation")
@@ -464,6 +503,14 @@ def main(argv=None) -> int:
         p.error("--ablation scores classifiers; --statistics-only trains none: give one of them")
     if a.statistics_only and a.classifier_seeds > 1:
         p.error("--classifier-seeds seeds the classifier; --statistics-only trains none: give one of them")
+    try:
+        curve = [int(n) for n in a.learning_curve.split(",") if n.strip()]
+    except ValueError:
+        p.error(f"--learning-curve {a.learning_curve!r}: give items per class as integers, e.g. 2,4,8")
+    if a.statistics_only and curve:
+        p.error("--learning-curve trains classifiers; --statistics-only trains none: give one of them")
+    if a.draws < 1:
+        p.error(f"--draws must be >= 1, got {a.draws}")
     a.out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     try:
@@ -507,6 +554,13 @@ def main(argv=None) -> int:
                "ablation": {}, **sets,
                "window": window, "stride": stride, "quick": bool(a.quick)}
     metrics["ablation"]["full"] = {"off": VARIANTS["full"][0], "accuracy": metrics["sim_to_real"]["accuracy"]}
+    if curve:
+        try:
+            metrics["learning_curve"] = learning_curve(synthetic, real, window, stride, curve, a.draws,
+                                                       a.classifier_seeds)
+        except ValueError as e:
+            print(f"sim_to_real_radhar: --learning-curve: {e}", file=sys.stderr)
+            return 2
     for variant in ablation:
         try:
             folder = _generate(a, variant, cfg, size)
