@@ -124,7 +124,8 @@ def _db(x):
     return 20 * np.log10(abs(x))
 
 
-@pytest.mark.parametrize("kind, leg, distance", [("trihedral", 0.1, 3.0), ("dihedral", 0.3, 1.0)])
+@pytest.mark.parametrize("kind, leg, distance", [("trihedral", 0.1, 3.0), ("dihedral", 0.1, 3.0),
+                                                 pytest.param("dihedral", 0.3, 1.0, marks=pytest.mark.slow)])
 def test_engine_defaults_give_the_exact_and_converged_echo(tmp_path, kind, leg, distance):
     """The path engine's defaults on a corner reflector 0-45 degrees off its axis: the whole PO echo (channel of
     an isotropic element at the phase centre) within 0.1 dB of the exact flat-face PO of every chain (the
