@@ -39,8 +39,8 @@ def test_mirror_image_trihedrals_agree(tmp_path, aspect):
     """Two 0.1 m trihedrals, mirror images in the plane y = 0, 3 m ahead and 1.5 m to either side, turned
     ``aspect`` degrees off their axis; the radar's phase centre on that plane at 0, 0.2 and 0.4 m along the
     lane: both echoes within 0.2 dB, twice what each may be off the exact flat-face PO
-    (``tests/test_flat_faces.py``: 0.1 dB); their apertures' grids fall differently on the two. (The issue
-    asked 0.5 dB; the sampled render, ``po_flat_faces=False``, reaches 0.48 dB at 45 degrees.)"""
+    (``tests/test_flat_faces.py``: 0.1 dB); their apertures' grids fall differently on the two. (0.5 dB would
+    not tell the exact apertures from the sampled render, ``po_flat_faces=False``: 0.48 dB at 45 degrees.)"""
     anim = load_animation(mirror_pair_scene(tmp_path / "pair", 0.1, 3.0, 1.5, np.deg2rad(aspect)))
     engine = PathEngine(max_depth=3, diffuse=False)
     for x in (0.0, 0.2, 0.4):
