@@ -253,9 +253,9 @@ def monostatic_channels(renders, wavelength: float, origin=None) -> list:
     r"""Per render, every sample's share :math:`h_i = a_i e^{-j2\pi c\tau_i/\lambda}` ``[P]`` of the channel of
     an isotropic element at the render origin (transmitting and receiving), in-sample factor included
     (:func:`~.po_render.chain_po_gains`; for the cut pieces of :mod:`~sionnafmcw.engines.flat_faces`, their
-    outline's, :func:`~.flat_faces.outline_factor`): the echo the error bound is measured against."""
+    outline's, :func:`~.flat_faces.piece_factor`): the echo the error bound is measured against."""
     from ..constants import SPEED_OF_LIGHT
-    from .flat_faces import outline_factor
+    from .flat_faces import piece_factor
     from .po_render import chain_po_gains
 
     origin = renders[0].source[:1] if origin is None else origin
@@ -266,9 +266,7 @@ def monostatic_channels(renders, wavelength: float, origin=None) -> list:
             continue
         a, tau, _ = chain_po_gains(bounce, origin, origin, wavelength, in_sample_phase=bounce.outline is None)
         if bounce.outline is not None:
-            images = np.einsum("pij,mj->mpi", bounce.image_linear, origin) + bounce.image_offset[None]
-            a = a * outline_factor(bounce.outline, bounce.samples.position, bounce.samples.normal, images, origin,
-                                   wavelength)
+            a = a * piece_factor(bounce, origin, origin, wavelength)
         out.append(a[0, 0] * np.exp(-2j * np.pi * SPEED_OF_LIGHT / wavelength * tau[0, 0]))
     return out
 

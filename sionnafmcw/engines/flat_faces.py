@@ -146,9 +146,7 @@ def plane_faces(vertices, faces, max_faces: int = MAX_PLANE_FACES) -> np.ndarray
             groups.append([i])
     polygons = []
     for (n, _), members in zip(keys, groups):
-        u = cross(n, [1.0, 0.0, 0.0] if abs(n[0]) < 0.9 else [0.0, 1.0, 0.0])
-        u /= np.linalg.norm(u)
-        w = cross(n, u)
+        u, w = _plane_basis(n)
         corners = tri[members].reshape(-1, 3)
         flat = np.stack([corners @ u, corners @ w], axis=1)
         hull = corners[_hull_2d(flat)]
@@ -182,7 +180,7 @@ def exact_objects(objects) -> dict:
         surface = obj.surface
         if surface.kind == "deforming":
             continue
-        faces = getattr(surface, "_plane_faces", False)
+        faces = surface._plane_faces
         if faces is False:
             lo, hi = surface.vertices.min(axis=0), surface.vertices.max(axis=0)
             faces = plane_faces(surface.vertices, surface.faces) \
@@ -324,6 +322,13 @@ def outline_factor(outline, centre, normal, tx_images, rx, wavelength: float) ->
     return np.exp(-1j * mu) * ((1 + 1j * mu) * i0 + 1j * second) / area
 
 
+def piece_factor(bounce, tx_positions, rx_positions, wavelength: float) -> np.ndarray:
+    """``[M, N, P]``: :func:`outline_factor` of the cut pieces of a render (``bounce.outline`` set) for the Tx
+    elements (through each piece's mirror map) and the Rx elements (world, m)."""
+    return outline_factor(bounce.outline, bounce.samples.position, bounce.samples.normal,
+                          bounce.image_of(tx_positions), np.atleast_2d(np.asarray(rx_positions, float)), wavelength)
+
+
 def chain_pieces(polygons, origin, depth: int, step: float) -> list:
     """Per chain of ``polygons [F, W, 3]`` (world) seen from ``origin`` up to ``depth`` bounces
     (:func:`~sionnafmcw.flat_face_po.chain_apertures`): ``(chain, cells (centres, edges), cut polygons)``."""
@@ -379,7 +384,7 @@ def exact_renders(world, objects, exact: dict, origin, rotation, wavelength: flo
         # the pieces depend on the faces' placement, the origin and the step only: kept on the surface for
         # the next frame (a radar at rest before a static or resting object finds the same ones)
         key = (origin.tobytes(), polygons.tobytes(), step, int(depth))
-        cached = getattr(obj.surface, "_exact_pieces", None)
+        cached = obj.surface._exact_pieces
         if cached is not None and cached[0] == key:
             pieces = cached[1]
         else:
@@ -478,5 +483,5 @@ def _object_renders(world, objects, k, polygons, pieces, step, origin, rotation,
 
 __all__ = ["DERIVATIVE_STEP", "HIT_TOLERANCE", "MAX_EXTENT", "MAX_PLANE_FACES", "PLANE_TOLERANCE",
            "aperture_pieces", "chain_pieces", "clip_convex", "exact_objects", "exact_renders", "outline_factor",
-           "plane_faces",
+           "piece_factor", "plane_faces",
            "unfolded_points"]

@@ -682,13 +682,11 @@ class PathEngine(Engine):
         if bounce.outline is None:
             a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern)
         else:   # cut pieces of an exact aperture: point samples times their outline's factor
-            from .flat_faces import outline_factor
+            from .flat_faces import piece_factor
 
             a, tau, doppler = element_pair_po(bounce, tx_w, rx_w, rot, wavelength, radar.antenna_pattern,
                                               in_sample_phase=False)
-            images = np.einsum("pij,mj->mpi", bounce.image_linear, tx_w) + bounce.image_offset[None]
-            a *= outline_factor(bounce.outline, bounce.samples.position, bounce.samples.normal, images, rx_w,
-                                wavelength)
+            a *= piece_factor(bounce, tx_w, rx_w, wavelength)
         doppler = with_ego_doppler(doppler, self._motion, bounce.first_point, bounce.samples.position, wavelength)
         return a, tau, doppler, bounce.samples.labels
 
@@ -749,9 +747,10 @@ class PathEngine(Engine):
                                        max_splits=self._max_splits, exact_ids=exact_ids)
             self.last_renders = renders
         if exact:
+            motion = (origin_motion["origin_velocity"], origin_motion["origin_acceleration"]) if origin_motion \
+                else None
             self.last_exact_renders = exact_renders(world, objects, exact, centre, rot, wavelength, depth,
-                                                    self.po_samples_across, origin_motion=tuple(origin_motion.values())
-                                                    or None)
+                                                    self.po_samples_across, origin_motion=motion)
         else:
             self.last_exact_renders = []
         echoes = []

@@ -439,6 +439,12 @@ class Render:
                        source_acceleration=pick(self.source_acceleration), one_object=pick(self.one_object),
                        outline=pick(self.outline))
 
+    def image_of(self, points) -> np.ndarray:
+        """``[M, P, 3]``: the images of ``points [M, 3]`` (the Tx elements) through every sample's mirror map
+        :math:`M(\mathbf x) = A\mathbf x + \mathbf b` (the points themselves on bounce 1)."""
+        return np.einsum("pij,mj->mpi", self.image_linear, np.atleast_2d(np.asarray(points, float))) \
+            + self.image_offset[None]
+
     def reflected(self) -> tuple[np.ndarray, np.ndarray]:
         r"""The shading normals turned to the incident side, :math:`\hat{\mathbf n}` with
         :math:`\hat{\mathbf n}\cdot\hat{\mathbf k}_{in} \le 0`, and the mirrored rays
@@ -859,7 +865,7 @@ def chain_po_gains(bounce: Render, tx_positions, rx_positions, wavelength: float
     if bounce.depth == 1:
         return po_gains(s, tx, rx, wavelength, tx_gain, rx_gain, in_sample_phase)
     m, n, p = tx.shape[0], rx.shape[0], s.num_samples
-    images = np.einsum("pij,mj->mpi", bounce.image_linear, tx) + bounce.image_offset[None]   # [M, P, 3]
+    images = bounce.image_of(tx)                                                             # [M, P, 3]
     d_t = s.position[None] - images
     r_t = np.linalg.norm(d_t, axis=-1)
     s_t = d_t / r_t[..., None]                                   # image -> sample

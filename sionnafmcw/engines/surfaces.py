@@ -80,6 +80,8 @@ class Surface:
     mesh_edge: float = 0.0            # the stored mesh's longest edge (m)
     _gradients: np.ndarray | None = field(default=None, repr=False)   # normal_gradients(), once computed
     _classes: tuple | None = field(default=None, repr=False)          # curvature_classes(), once computed
+    _plane_faces: object = field(default=False, repr=False)   # flat_faces.exact_objects: polygons, None, or not yet
+    _exact_pieces: tuple | None = field(default=None, repr=False)     # flat_faces.exact_renders: (key, pieces)
 
     def __post_init__(self):
         if self.first_vertices is None:
