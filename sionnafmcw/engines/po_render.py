@@ -440,7 +440,7 @@ class Render:
                        outline=pick(self.outline))
 
     def image_of(self, points) -> np.ndarray:
-        """``[M, P, 3]``: the images of ``points [M, 3]`` (the Tx elements) through every sample's mirror map
+        r"""``[M, P, 3]``: the images of ``points [M, 3]`` (the Tx elements) through every sample's mirror map
         :math:`M(\mathbf x) = A\mathbf x + \mathbf b` (the points themselves on bounce 1)."""
         return np.einsum("pij,mj->mpi", self.image_linear, np.atleast_2d(np.asarray(points, float))) \
             + self.image_offset[None]
