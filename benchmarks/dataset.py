@@ -4,8 +4,9 @@ For each worker count W the script starts a ``distributed.LocalCluster`` of W pr
 thread each), warms it with one item per worker (process start, imports, first kernel
 compilation: the one-off cost :math:`t_w`), then times :func:`sionnafmcw.dataset.generate` of a
 fresh ``--items``-item data set on the warm cluster (CPU threads per item = cores // W: simulate's threads).
-It prints items/minute, the ratio to the 1-worker baseline measured in the same process, the
-mean per-item wall time inside a worker and its CPU time (from the index), the scheduler
+The warm-up items have at most ``--warm-frames`` frames (4): what they warm does not grow with an
+item's length. It prints items/minute, the ratio to the 1-worker baseline measured in the same
+process, the mean per-item wall time inside a worker and its CPU time (from the index), the scheduler
 overhead per task (:math:`t_s`, from a burst of no-op tasks) and the bytes each item writes
 (:math:`S`).
 
@@ -91,11 +92,13 @@ import numpy as np
 RADHAR_CFG = "/work/shared/realdata/radhar/1443es1_short_range_3d.cfg"
 
 
-def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None, people=3, cfg=RADHAR_CFG):
+def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None, people=3, cfg=RADHAR_CFG,
+              activity="walk"):
     """The data-set spec of ``scenario``: ``moving_plate`` and ``straight_walk`` with ``walk-77ghz`` at
     ``chirps`` chirps and ``samples_per_src`` ``samples``; ``radhar`` (one person in a furnished room,
     every range of :func:`~sionnafmcw.dataset.randomisation.radhar_spec` drawn per item) and ``people``
-    (``people`` people in a room) with the radar of the TI ``.cfg`` ``cfg`` and the engine's defaults."""
+    (``people`` people doing ``activity`` in a room) with the radar of the TI ``.cfg`` ``cfg`` and the engine's
+    defaults."""
     if scenario == "radhar":
         from sionnafmcw.dataset.randomisation import radhar_spec
 
@@ -103,14 +106,26 @@ def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_optio
                            num_frames=frames)
     params = {"num_frames": frames}
     if scenario == "people":
-        return {"name": name, "scenario": "people", "count": count, "seed": seed, "radar": {"file": cfg},
+        return {"name": name, "scenario": "people", "count": count, "seed": seed, "radar": radar_fields(cfg),
                 "engine_options": dict(engine_options or {}),
-                "parameters": {"num_frames": frames, "fps": 30.0, "num_people": people, "room": True}}
+                "parameters": {"num_frames": frames, "fps": 30.0, "num_people": people, "room": True,
+                               "activity": activity}}
     if scenario == "moving_plate":
         params.update(speed={"uniform": [-3.0, 3.0]}, start_range={"uniform": [2.0, 6.0]})
     return {"name": name, "scenario": scenario, "count": count, "seed": seed,
             "radar": {"preset": "walk-77ghz", "num_chirps": chirps},
             "engine_options": {"samples_per_src": samples, **(engine_options or {})}, "parameters": params}
+
+
+def radar_fields(cfg) -> dict:
+    """The RadarConfig fields of the TI ``.cfg`` ``cfg`` as the running tree reads them (its RF lines only:
+    ``frame_cost.radar_copy``), so that a tree from before data-set specs took a ``.cfg`` runs the same radar."""
+    from frame_cost import radar_copy
+
+    from sionnafmcw.radar import RadarConfig
+
+    with tempfile.TemporaryDirectory() as tmp:
+        return RadarConfig.resolve(str(radar_copy(Path(cfg), Path(tmp) / "radar_rf.cfg"))).to_dict()
 
 
 def folder_bytes(path: Path) -> int:
@@ -128,8 +143,10 @@ def run(workers: int, args, root: Path) -> dict:
     with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=":0",
                       silence_logs=logging.ERROR) as cluster, Client(cluster) as client:
         t_cluster = time.perf_counter() - t0
-        warm = make_spec(f"warm{workers}", args.scenario, workers, args.frames, args.chirps, 100 + workers, args.samples,
-                         args.engine_options, args.people, args.cfg)
+        warm = make_spec(f"warm{workers}", args.scenario, workers, min(args.frames, args.warm_frames), args.chirps,
+                         100 + workers, args.samples,
+                         args.engine_options, args.people, args.cfg,
+                     args.activity)
         generate(warm, root / f"warm{workers}", scheduler=client, progress=False, item_threads=threads)
         t_warm = time.perf_counter() - t0
         # scheduler overhead: a burst of no-op tasks
@@ -138,7 +155,8 @@ def run(workers: int, args, root: Path) -> dict:
         client.gather(client.map(lambda i: i, range(n_noop), pure=False))
         t_sched = (time.perf_counter() - ts) / n_noop
         spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples,
-                         args.engine_options, args.people, args.cfg)
+                         args.engine_options, args.people, args.cfg,
+                     args.activity)
         ts = time.perf_counter()
         index = generate(spec, root / f"bench{workers}", scheduler=client, progress=False, item_threads=threads)
         elapsed = time.perf_counter() - ts
@@ -154,6 +172,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--items", type=int, default=8)
     parser.add_argument("--frames", type=int, default=4)
+    parser.add_argument("--warm-frames", type=int, default=4,
+                        help="frames of the warm-up items (process start, imports, first compilation: their length "
+                             "does not matter; at most --frames)")
     parser.add_argument("--chirps", type=int, default=64, help="chirps per Tx of walk-77ghz (128 samples)")
     parser.add_argument("--samples", type=int, default=20_000, help="PathEngine samples_per_src")
     parser.add_argument("--scenario", default="moving_plate",
@@ -161,6 +182,9 @@ def main(argv=None):
                         help="radhar: one person in a furnished room, people: --people in a room (both with --cfg's "
                              "radar and the engine's defaults)")
     parser.add_argument("--people", type=int, default=3, help="people of --scenario people")
+    parser.add_argument("--activity", default="walk",
+                        help="what the people of --scenario people do (long items: walkers need room for their "
+                             "tracks; jump stays in place)")
     parser.add_argument("--cfg", default=RADHAR_CFG, help="TI .cfg of --scenario radhar and people")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--keep", help="folder to keep the data sets in (default: a temporary one)")
@@ -181,13 +205,15 @@ def main(argv=None):
     finally:
         if not args.keep:
             shutil.rmtree(root, ignore_errors=True)
+    if not all(r["complete"] for r in rows):
+        raise SystemExit("no item completed in some run (the data set's warnings above say why)")
     base = rows[0]["items_per_min"]
     print(f"{'workers':>7} {'start s':>8} {'warm s':>7} {'items':>6} {'time s':>7} {'items/min':>10} {'ratio':>6} "
-          f"{'t_1 s':>6} {'cpu s':>6} {'sched ms':>9} {'MB/item':>8}")
+          f"{'t_1 s':>6} {'cpu s':>6} {'cpu s/frame':>11} {'sched ms':>9} {'MB/item':>8}")
     for r in rows:
         print(f"{r['workers']:>7} {r['cluster_s']:>8.1f} {r['warm_s']:>7.1f} {r['complete']:>6} {r['elapsed_s']:>7.1f} "
               f"{r['items_per_min']:>10.1f} {r['items_per_min'] / base:>6.2f} {r['item_s']:>6.2f} "
-              f"{r['item_cpu_s']:>6.2f} {r['sched_ms']:>9.2f} {r['bytes'] / 1e6:>8.2f}")
+              f"{r['item_cpu_s']:>6.2f} {r['item_cpu_s'] / args.frames:>11.3f} {r['sched_ms']:>9.2f} {r['bytes'] / 1e6:>8.2f}")
     print(f"load average after: {os.getloadavg()[0]:.2f}  (t_1: wall time of one item in a worker; cpu: its "
           "worker's CPU time meanwhile; ratio: items/min against the first row)")
 

@@ -117,6 +117,26 @@ def test_static_scene_with_merge_keeps_the_channel(crossing):
         assert cached.last_parts["po"] is not None
 
 
+def test_static_bounce_that_merges_nothing_is_held_unmerged(crossing, monkeypatch):
+    """A static bounce whose merge merges nothing (no cell size within the budget: here a budget of 0) is held
+    as the samples' own contributions, as without merging: no cells, the frame takes the blocked samples'
+    contributions from the block, and every cube is the unmerged engine's bit for bit."""
+    from sionnafmcw.engines import po_merge
+
+    monkeypatch.setattr(po_merge, "MERGE_BUDGET_SHARE", 0.0)
+    nothing = PathEngine(po_bounce_rule=False)
+    unmerged = PathEngine(po_merge=False, po_bounce_rule=False)
+    blocked = 0
+    cache_a, cache_b = {}, {}
+    for f in range(FRAMES):
+        a, b = nothing.echoes(crossing, RADAR, f), unmerged.echoes(crossing, RADAR, f)
+        blocked += nothing.stats[f].figures["static_po_removed"]
+        np.testing.assert_array_equal(cube(a, cache_a), cube(b, cache_b))
+    po = nothing._state.static.po
+    assert all(cells is None for cells in po.cells) and po.unmerged, "nothing merged: no cells, the block's views"
+    assert blocked > 0, "the box must block static samples"
+
+
 def test_static_block_is_the_same_every_frame(crossing):
     engine = PathEngine()
     echoes = frames_of(engine, crossing)

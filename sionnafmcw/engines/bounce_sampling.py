@@ -278,13 +278,15 @@ def under_resolved(renders, objects, samples_across: int, wavelength: float, cha
     (tube, side) pairs of those boundary tubes whose neighbouring grid cell holds no tube.
     ``channels``: :func:`monostatic_channels` of ``renders`` (computed when None); the apertures of chains
     that stay on one of the objects ``exact_ids`` are left as they are (their echo is not the tubes')."""
+    from .po_merge import label_codes
+
     first = renders[0]
     p = first.num_samples
     if len(renders) < 2 or p == 0 or renders[1].num_samples == 0:
         return np.zeros(0, dtype=np.int64), np.zeros((0, 2), dtype=np.int64)
     eta = error_share(samples_across)
     channels = monostatic_channels(renders, wavelength) if channels is None else channels
-    names, codes = np.unique(np.concatenate([b.samples.labels for b in renders]), return_inverse=True)
+    names, codes = label_codes(np.concatenate([b.samples.labels for b in renders]))   # np.unique's, run by run
     echo = np.abs(np.bincount(codes, np.concatenate(channels).real, names.size)
                   + 1j * np.bincount(codes, np.concatenate(channels).imag, names.size))
     label_of = np.split(codes.reshape(-1), np.cumsum([b.num_samples for b in renders])[:-1])

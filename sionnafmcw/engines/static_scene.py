@@ -269,19 +269,28 @@ class RayIndex:
                 self.groups.append((sources[first[g]], cKDTree(k[members]), members, float(offset[members].max())))
         self.size = len(sources)
 
-    def _cone(self, tree, point, members, centre, radius) -> np.ndarray:
-        """The ``members`` of a group (rays from ``point``) whose direction lies in the cone of the sphere."""
-        d = float(np.linalg.norm(centre - point))
-        if d <= radius:
-            return members
-        chord = 2.0 * np.sin(0.5 * np.arcsin(radius / d))
-        hit = tree.query_ball_point((centre - point) / d, chord * (1 + 1e-9) + 1e-12, return_sorted=False)
-        return members[np.asarray(hit, dtype=np.int64)]
+    def _cones(self, tree, point, members, centres, radii) -> list:
+        """Per sphere (``centres [S, 3]``, ``radii [S]``) the ``members`` of a group (rays from ``point``) whose
+        direction lies in the sphere's cone: one ball query for all of them."""
+        centres = np.asarray(centres, float).reshape(-1, 3)
+        radii = np.asarray(radii, float).reshape(-1)
+        d = np.linalg.norm(centres - point, axis=-1)
+        out = [members] * len(d)                  # from inside a sphere every ray may meet it
+        cone = np.flatnonzero(d > radii)
+        if cone.size:
+            chord = 2.0 * np.sin(0.5 * np.arcsin(radii[cone] / d[cone]))
+            hits = tree.query_ball_point((centres[cone] - point) / d[cone, None], chord * (1 + 1e-9) + 1e-12,
+                                         return_sorted=False)
+            for i, hit in zip(cone, hits):
+                out[i] = members[np.asarray(hit, dtype=np.int64)]
+        return out
 
     def meet(self, spheres: Spheres, starts, directions, lengths) -> np.ndarray:
         """``[P]`` bool: :meth:`Spheres.meet` of the indexed segments (``starts``, unit ``directions``,
         ``lengths``, the segments the index was built on): each sphere's exact test on the segments in
-        its cone alone, found per group of touching spheres (:meth:`Spheres.groups`) and then per member."""
+        its cone alone, found per group of touching spheres (:meth:`Spheres.groups`) and then per member
+        (the cones only choose which segments the exact test sees, so how they are queried does not change
+        the answer)."""
         out = np.zeros(self.size, dtype=bool)
         if self.size == 0 or len(spheres.radius) == 0:
             return out
@@ -290,18 +299,21 @@ class RayIndex:
         if self.loose.size:
             out[self.loose] = spheres.meet(starts[self.loose], k[self.loose], length[self.loose])
         groups = spheres.groups()
+        group_centres = np.array([centre for _, centre, _ in groups], float).reshape(-1, 3)
+        group_radii = np.array([radius for _, _, radius in groups], float)
         for point, tree, members, margin in self.groups:
             grow = margin * (1 + 1e-9) + 1e-12
-            for parts, centre, radius in groups:
-                near = self._cone(tree, point, members, centre, radius + grow)
+            for (parts, _, _), near in zip(groups, self._cones(tree, point, members, group_centres,
+                                                                group_radii + grow)):
                 if near.size == 0:
                     continue
-                for j in parts:
-                    c, r = spheres.centre[j], float(spheres.radius[j])
-                    rows = near if len(parts) == 1 else self._cone(tree, point, members, c, r + grow)
+                cones = [near] if len(parts) == 1 else \
+                    self._cones(tree, point, members, spheres.centre[parts], spheres.radius[parts] + grow)
+                for j, rows in zip(parts, cones):
                     rows = rows[~out[rows]]
                     if rows.size:
-                        out[rows] = _meet_one(starts[rows], k[rows], length[rows], c, r)
+                        out[rows] = _meet_one(starts[rows], k[rows], length[rows], spheres.centre[j],
+                                              float(spheres.radius[j]))
         return out
 
 
@@ -408,7 +420,8 @@ class StaticPO:
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
         ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
-        (no merging); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`; ``exact_ids``: the
+        (no merging; a ``Merged`` that merged nothing, ``fraction`` None, counts as None, so that a frame takes
+        the blocked samples' contributions from the block instead of computing them again); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`; ``exact_ids``: the
         objects whose own chains carry no PO here (:meth:`~.po_render.Render.carries_po`: integrated per
         frame by :mod:`~sionnafmcw.engines.flat_faces`)."""
         from ..echoes import Echoes
@@ -443,7 +456,7 @@ class StaticPO:
             chosen = b.select(kept)
             a, tau, doppler, labels = contributions(chosen)
             merged = merge(chosen, (a, tau, doppler, labels))
-            if merged is None:
+            if merged is None or merged.fraction is None:   # nothing merged: the samples' own contributions
                 cells.append(None)
                 parts.append(Echoes(a, tau, doppler, labels))
             else:
