@@ -93,11 +93,11 @@ RADHAR_CFG = "/work/shared/realdata/radhar/1443es1_short_range_3d.cfg"
 
 
 def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_options=None, people=3, cfg=RADHAR_CFG,
-              activity="walk"):
+              activity="walk", separation="tracks"):
     """The data-set spec of ``scenario``: ``moving_plate`` and ``straight_walk`` with ``walk-77ghz`` at
     ``chirps`` chirps and ``samples_per_src`` ``samples``; ``radhar`` (one person in a furnished room,
     every range of :func:`~sionnafmcw.dataset.randomisation.radhar_spec` drawn per item) and ``people``
-    (``people`` people doing ``activity`` in a room) with the radar of the TI ``.cfg`` ``cfg`` and the engine's
+    (``people`` people doing ``activity`` in a room, kept ``separation`` apart) with the radar of the TI ``.cfg`` ``cfg`` and the engine's
     defaults."""
     if scenario == "radhar":
         from sionnafmcw.dataset.randomisation import radhar_spec
@@ -109,7 +109,7 @@ def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_optio
         return {"name": name, "scenario": "people", "count": count, "seed": seed, "radar": radar_fields(cfg),
                 "engine_options": dict(engine_options or {}),
                 "parameters": {"num_frames": frames, "fps": 30.0, "num_people": people, "room": True,
-                               "activity": activity}}
+                               "activity": activity, "separation": separation}}
     if scenario == "moving_plate":
         params.update(speed={"uniform": [-3.0, 3.0]}, start_range={"uniform": [2.0, 6.0]})
     return {"name": name, "scenario": scenario, "count": count, "seed": seed,
@@ -146,7 +146,7 @@ def run(workers: int, args, root: Path) -> dict:
         warm = make_spec(f"warm{workers}", args.scenario, workers, min(args.frames, args.warm_frames), args.chirps,
                          100 + workers, args.samples,
                          args.engine_options, args.people, args.cfg,
-                     args.activity)
+                     args.activity, args.separation)
         generate(warm, root / f"warm{workers}", scheduler=client, progress=False, item_threads=threads)
         t_warm = time.perf_counter() - t0
         # scheduler overhead: a burst of no-op tasks
@@ -156,7 +156,7 @@ def run(workers: int, args, root: Path) -> dict:
         t_sched = (time.perf_counter() - ts) / n_noop
         spec = make_spec(f"bench{workers}", args.scenario, args.items, args.frames, args.chirps, 7, args.samples,
                          args.engine_options, args.people, args.cfg,
-                     args.activity)
+                     args.activity, args.separation)
         ts = time.perf_counter()
         index = generate(spec, root / f"bench{workers}", scheduler=client, progress=False, item_threads=threads)
         elapsed = time.perf_counter() - ts
@@ -185,6 +185,9 @@ def main(argv=None):
     parser.add_argument("--activity", default="walk",
                         help="what the people of --scenario people do (long items: walkers need room for their "
                              "tracks; jump stays in place)")
+    parser.add_argument("--separation", default="tracks", choices=("tracks", "frames"),
+                        help="people of --scenario people: swept tracks apart, or apart in every frame (long items "
+                             "of several walkers)")
     parser.add_argument("--cfg", default=RADHAR_CFG, help="TI .cfg of --scenario radhar and people")
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     parser.add_argument("--keep", help="folder to keep the data sets in (default: a temporary one)")

@@ -279,9 +279,61 @@ def rd_summary(cubes):
             "peak_moving": [[int(a), int(b)] for a, b in peak_moving], "num_doppler": n_d}
 
 
+#: ``--profile``: the stages of a frame as the functions that do them, ``(stage, module, qualified name)``; none
+#: calls another, so their times add up (the rest is ``other``). A later frame's own PO stage is the moving
+#: objects' render and its reflections, the search for the static samples they block, the PO integral and the
+#: merge's tries; frame 0 also builds the static block (its trace, render, reflections, bounce rule, PO integral
+#: and, in the synthesis, its cube), whose work falls into the same stages.
+PROFILE_STAGES = [
+    ("trace: Sionna's paths", "sionnafmcw.engines.traced_paths", "trace_paths"),
+    ("traced paths to element pairs", "sionnafmcw.engines.path", "PathEngine._traced_echoes"),
+    ("geometry: Sionna's meshes", "sionnafmcw.engines.loaded_scene", "LoadedScene.update_geometry"),
+    ("geometry: smooth surfaces placed", "sionnafmcw.engines.surfaces", "SurfaceWorld.place"),
+    ("PO render: first bounce", "sionnafmcw.engines.po_render", "render"),
+    ("PO render: reflections", "sionnafmcw.engines.po_render", "reflect"),
+    ("bounce rule: apertures' bounds", "sionnafmcw.engines.bounce_sampling", "under_resolved"),
+    ("bounce rule: quarters cast", "sionnafmcw.engines.bounce_sampling", "quartered"),
+    ("bounce rule: renders joined", "sionnafmcw.engines.bounce_sampling", "_joined"),
+    ("bounce rule: channels", "sionnafmcw.engines.bounce_sampling", "monostatic_channels"),
+    ("PO: static samples blocked (cones)", "sionnafmcw.engines.static_scene", "RayIndex.meet"),
+    ("PO: static samples blocked (casts)", "sionnafmcw.engines.static_scene", "blocked_in_world"),
+    ("PO: static rays ending on a moving object", "sionnafmcw.engines.static_scene", "first_hit_moving"),
+    ("PO integral per element pair", "sionnafmcw.engines.po_kernel", "element_pair_po"),
+    ("PO merge's tries", "sionnafmcw.engines.po_merge", "merge_contributions"),
+    ("synthesis: IF chain's gains", "sionnafmcw.receiver", "filter_echoes"),
+    ("synthesis: beat sum (finufft)", "sionnafmcw.synthesis.nufft", "beat_nufft"),
+]
+
+
+def stage_profile(stats) -> dict:
+    """Seconds per stage of :data:`PROFILE_STAGES` (their cumulative times in the ``pstats.Stats``
+    ``stats``) and ``other`` (the profiled total less their sum)."""
+    import importlib
+    import inspect
+
+    out = {}
+    for stage, module, qualname in PROFILE_STAGES:
+        try:
+            obj = importlib.import_module(module)
+            for part in qualname.split("."):
+                obj = getattr(obj, part)
+            code = inspect.unwrap(obj).__code__
+        except (ImportError, AttributeError):
+            continue   # a tree without it
+        key = (code.co_filename, code.co_firstlineno, code.co_name)
+        out[stage] = out.get(stage, 0.0) + (stats.stats[key][3] if key in stats.stats else 0.0)
+    out["other"] = stats.total_tt - sum(out.values())
+    return out
+
+
 def sequential(spec: dict) -> dict:
     """``--sequential``: frame 0, then frames 1..N, each frame's engine and synthesis one after the other
-    in one thread of control (no overlap), CPU seconds of each and the engine's stage figures."""
+    in one thread of control (no overlap), CPU seconds of each and the engine's stage figures; with
+    ``profile``, the wall seconds per stage (:data:`PROFILE_STAGES`) of frame 0 and of frames 1..N summed,
+    from a ``cProfile`` of each (its own overhead included)."""
+    import cProfile
+    import pstats
+
     import numpy as np
 
     from sionnafmcw import engines
@@ -293,15 +345,24 @@ def sequential(spec: dict) -> dict:
     radar = RadarConfig.resolve(spec["radar"])
     engine = engines.create("path", **spec["options"])
     cache, rows = {}, []
+    profiles = [cProfile.Profile(), cProfile.Profile()] if spec.get("profile") else None
     for f in range(spec["frames"]):
+        if profiles:
+            profiles[min(f, 1)].enable()
         c0 = walk_frames.cpu_seconds()
         echoes = engine.echoes(animation, radar, f)
         c1 = walk_frames.cpu_seconds()
         synthesize(echoes, radar, frame_time=animation.frames[f].time, rng=np.random.default_rng([0, f]),
                    static_cache=cache)
-        rows.append({"engine_cpu": c1 - c0, "synthesis_cpu": walk_frames.cpu_seconds() - c1,
+        c2 = walk_frames.cpu_seconds()
+        if profiles:
+            profiles[min(f, 1)].disable()
+        rows.append({"engine_cpu": c1 - c0, "synthesis_cpu": c2 - c1,
                      "stages": {k[:-8]: v for k, v in engine.last_stats.figures.items() if k.endswith("_seconds")}})
-    return {"rows": rows}
+    out = {"rows": rows}
+    if profiles:
+        out["profile"] = [stage_profile(pstats.Stats(p)) for p in profiles]
+    return out
 
 
 def worker(spec: dict) -> dict:
@@ -422,6 +483,8 @@ def main(argv=None) -> int:
     p.add_argument("--no-noise", action="store_true", help="simulate without receiver noise")
     p.add_argument("--sequential", type=int, default=0, metavar="N",
                    help="instead: frames 0..N, engine and synthesis one after the other, CPU seconds of each")
+    p.add_argument("--profile", action="store_true",
+                   help="with --sequential: wall ms per stage (PROFILE_STAGES) of frame 0 and of a later frame")
     p.add_argument("--json", default=None)
     circle_walk.add_tree_and_worker_arguments(p)
     args = p.parse_args(argv)
@@ -461,7 +524,8 @@ def main(argv=None) -> int:
         for method in ("A", "B") if args.only is None else (args.only,):
             spec = {"label": method, "scene": str(scene), "radar": str(radar), "frames": args.sequential + 1,
                     "options": methods[method], "sequential": True}
-            rows = circle_walk.launch(spec, trees.get(method), __file__)["rows"]
+            result = circle_walk.launch(spec | {"profile": args.profile}, trees.get(method), __file__)
+            rows = result["rows"]
             steady = rows[1:]
             stages = {k: sum(r["stages"].get(k, 0.0) for r in steady) / len(steady) for k in steady[0]["stages"]}
             print(f"{method}: frame 0 engine {rows[0]['engine_cpu']:.2f} + synthesis {rows[0]['synthesis_cpu']:.2f} "
@@ -469,6 +533,12 @@ def main(argv=None) -> int:
                   f"{sum(r['engine_cpu'] for r in steady) / len(steady):.3f} + synthesis "
                   f"{sum(r['synthesis_cpu'] for r in steady) / len(steady):.3f} CPU-s a frame; engine stages (wall s a "
                   f"frame): " + ", ".join(f"{k} {v:.3f}" for k, v in stages.items()))
+            if args.profile:
+                first, rest = result["profile"]
+                print(f"  {method}, wall ms (cProfile)          frame 0   frames 1-{args.sequential}, a frame")
+                for stage in rest:
+                    print(f"  {stage:<42} {1e3 * first.get(stage, 0.0):9.0f} {1e3 * rest[stage] / len(steady):9.1f}")
+                print(f"  {'total':<42} {1e3 * sum(first.values()):9.0f} {1e3 * sum(rest.values()) / len(steady):9.1f}")
         return 0
     runs = []
     for i in range(args.repeats):

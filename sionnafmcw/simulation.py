@@ -156,6 +156,19 @@ SYNTHESIS_BYTES_PER_SAMPLE = 48
 #: Bytes per cube sample kept across frames: the noise-free complex128 cube of the engine's static
 #: echo block (``synthesize(..., static_cache=...)``).
 STATIC_CUBE_BYTES_PER_SAMPLE = 16
+#: The static block's cube of the last run, where the process keeps static blocks
+#: (:func:`~sionnafmcw.engines.path.keep_static_blocks`): a run whose engine reuses the block reuses it too.
+_KEPT_STATIC_CUBE: dict = {}
+
+
+def _keeps_static_blocks() -> bool:
+    """Whether the process keeps static blocks; the kept cube is dropped where it does not."""
+    from .engines import path
+
+    if not path.static_blocks_kept():
+        _KEPT_STATIC_CUBE.clear()
+        return False
+    return True
 
 
 def available_memory() -> int:
@@ -333,7 +346,9 @@ def _simulate(animation, radar, engine, out, frames, progress, radar_pose, seed,
             from tqdm.auto import tqdm
 
             bar = tqdm(total=len(todo), desc=f"simulate {out.name}", unit="frame")
-        static_cache = {}  # the beat cube of the engine's static echo block, computed once per block
+        # the beat cube of the engine's static echo block, computed once per block: kept across runs with the
+        # block itself where the process keeps static blocks (the entry names its block and radar)
+        static_cache = _KEPT_STATIC_CUBE if _keeps_static_blocks() else {}
 
         def synthesise(f, echoes):
             rng = np.random.default_rng([int(seed), int(f)])

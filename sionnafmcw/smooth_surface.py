@@ -155,7 +155,7 @@ icosphere in ``benchmarks/smooth_surface.py po``). So:
   sample moves off its ray (:math:`\le h`) and the distortion of the pixel tiling (order
   :math:`\sqrt{2h/\rho}`); measured within 0.15 dB of the exact spheres and 0.03 dB of the exact
   cylinder at :math:`\lambda/25` (0.3 dB even at level 1);
-* samples left on the facets need :math:`kd_{max} \le` 6 % (0.5 dB, half the issue's 1 dB, the other
+* samples left on the facets need :math:`kd_{max} \le` 6 % (0.5 dB, half of a 1 dB error budget, the other
   half to the render's pixel sampling): :math:`d_{max} \le \lambda/105`, :data:`FLAT_SAGITTA_FRACTION`
   = 1/100, twice the level and four times the triangles.
 

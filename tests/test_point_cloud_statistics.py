@@ -49,6 +49,11 @@ def test_counts_shares_and_extent_of_a_known_recording():
     assert s["intensity_db"]["median"] == pytest.approx(25.0)
 
 
+def test_no_recordings_is_a_clear_error():
+    with pytest.raises(ValueError, match="no recordings"):
+        recording_statistics([])
+
+
 def test_pooled_recordings_are_the_concatenation():
     a = recording([2, 2], [0, 0.6, 0, 0], [1, 2, 3, 4], [0, 0, 0, 0])
     b = recording([4], [0.6, 0.6, 0, 0], [1, 2, 3, 4], [0, 0, 0, 0])

@@ -29,6 +29,7 @@ items of :math:`F` frames, per-frame engine + synthesis time :math:`t_f`, per-it
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import shutil
 import socket
@@ -98,8 +99,13 @@ def run_item(task: dict) -> dict:
     try:
         from .. import scenes
         from ..animation import RadarPose
+        from ..engines.path import keep_static_blocks
         from ..radar import RadarConfig
         from ..simulation import simulate
+
+        if multiprocessing.parent_process() is not None:
+            # a worker process of its own: items that share their room and radar build its static block once
+            keep_static_blocks()
 
         item = task["item"]
         spec = task["spec"]

@@ -137,6 +137,7 @@ from __future__ import annotations
 import itertools
 import time
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
@@ -215,6 +216,31 @@ class _StaticBlock:
     po: object
     block: Echoes
     seconds: float
+    object_ids: dict = field(default_factory=dict)    # name -> Sionna object id of the scene it was built in
+
+    def for_scene(self, object_ids: dict, key: tuple) -> _StaticBlock:
+        """This block for another load of the same static scene (:func:`keep_static_blocks`): Sionna's object
+        ids are given per load, so the ids its paths and PO samples hold are those of ``object_ids`` (name ->
+        id) instead; the arrays that hold none are shared."""
+        old = np.array([self.object_ids[n] for n in sorted(self.object_ids)], dtype=np.int64)
+        new = np.array([object_ids[n] for n in sorted(self.object_ids)], dtype=np.int64)
+        order = np.argsort(old)
+        old, new = old[order], new[order]
+
+        def moved(ids):
+            if ids is None or old.size == 0:
+                return ids
+            ids = np.asarray(ids)
+            at = np.minimum(np.searchsorted(old, ids), old.size - 1)
+            return np.where(old[at] == ids, new[at], ids).astype(ids.dtype)
+
+        paths = None if self.paths is None else replace(self.paths, shapes=moved(self.paths.shapes))
+        po = self.po
+        if po is not None:
+            renders = [replace(r, samples=replace(r.samples, object_id=moved(r.samples.object_id)),
+                               one_object=moved(r.one_object)) for r in po.renders]
+            po = replace(po, renders=renders, index=po.index, unmerged=po.unmerged)
+        return replace(self, key=key, paths=paths, po=po, seconds=0.0, object_ids=dict(object_ids))
 
 
 def _labelled(part: Echoes) -> Echoes:
@@ -240,6 +266,43 @@ def _per_element_rates(paths: TracedPaths, rates, shape) -> np.ndarray:
 
 def _pose_key(pose: RadarPose) -> tuple:
     return tuple(np.round(np.concatenate([pose.position, pose.orientation]), 12))
+
+
+#: The static block last built in this process, by its content (:func:`keep_static_blocks`): at most one.
+_KEPT_BLOCKS: dict = {}
+_KEEP_BLOCKS = False
+
+
+def keep_static_blocks(enabled: bool = True) -> None:
+    """Keep the static block (:mod:`~sionnafmcw.engines.static_scene`) a path engine of this process built last,
+    for the next engine whose static scene is the same: the same static meshes (their files' bytes and
+    placements), materials, shape ids, moving objects, radar, pose and engine settings. The block is built
+    by deterministic code from exactly these, so a kept block is the one that engine would build, and
+    its first frame skips the build (the static objects' trace, PO render, bounce rule and PO integral).
+
+    For a data set's worker (:func:`~sionnafmcw.dataset.generate.run_item` turns it on): items that share
+    their room and radar, as a fixed room does, build it once per worker, and :func:`~sionnafmcw.simulate`
+    keeps its beat cube too. One block is kept (its memory: the static render); ``enabled=False`` drops it."""
+    global _KEEP_BLOCKS
+    _KEEP_BLOCKS = bool(enabled)
+    if not _KEEP_BLOCKS:
+        _KEPT_BLOCKS.clear()
+
+
+def static_blocks_kept() -> bool:
+    """Whether this process keeps static blocks (:func:`keep_static_blocks`)."""
+    return _KEEP_BLOCKS
+
+
+def _material_key(material) -> tuple:
+    """What a radio material is: its class, name, parameters and scattering pattern's (full precision)."""
+    params = mi.traverse(material)
+    values = tuple((k, tuple(np.ravel(np.asarray(params[k], dtype=float)))) for k in sorted(params.keys()))
+    pattern = getattr(material, "scattering_pattern", None)
+    pattern_key = (type(pattern).__name__,) + tuple(
+        (a, float(np.ravel(np.asarray(getattr(pattern, a)))[0])) for a in ("alpha_r", "alpha_i", "lambda_")
+        if pattern is not None and hasattr(pattern, a))
+    return type(material).__name__, str(getattr(material, "name", "")), values, pattern_key
 
 
 class PathEngine(Engine):
@@ -617,6 +680,12 @@ class PathEngine(Engine):
                                              if n not in moving)))
         if state.static is not None and state.static.key == key:
             return state.static, 0.0
+        content = self._static_content(radar, pose, moving) if _KEEP_BLOCKS else None
+        object_ids = {n: int(loaded.scene.objects[n].object_id) for n in loaded.shape_ids if n not in moving}
+        if content is not None and content in _KEPT_BLOCKS:   # another engine of this process built it
+            state.static = _KEPT_BLOCKS[content].for_scene(object_ids, key)
+            return state.static, 0.0
+        _KEPT_BLOCKS.clear()
         t0 = time.perf_counter()
         state.static = None
         with hidden(loaded, moving):   # Sionna's trace of the static objects alone
@@ -640,8 +709,38 @@ class PathEngine(Engine):
         if po is not None and po.echoes is not None:
             po.share(block, 0 if traced is None else traced.num_contributions)
         state.static = _StaticBlock(key, paths if paths.num_paths else None, traced, po, block,
-                                    time.perf_counter() - t0)
+                                    time.perf_counter() - t0, object_ids)
+        if content is not None:
+            _KEPT_BLOCKS[content] = state.static
         return state.static, state.static.seconds
+
+    def _static_content(self, radar, pose: RadarPose, moving: frozenset) -> str:
+        """A digest of everything the static block is built from (:func:`keep_static_blocks`): engine settings,
+        radar, pose, and per object its name and Mitsuba id, whether it moves and, for a static one, its mesh file's bytes
+        (or the geometry Mitsuba loaded), placement and radio material. Not Sionna's object ids, which each load
+        gives anew (:meth:`_StaticBlock.for_scene` moves a kept block to the new ones)."""
+        import hashlib
+        import json
+
+        loaded = self._loaded
+        digest = hashlib.sha256()
+        digest.update(json.dumps([self._settings(), radar.to_dict(), _pose_key(pose)], sort_keys=True,
+                                 default=repr).encode())
+        for name in sorted(loaded.shape_ids):
+            obj = loaded.scene.objects[name]
+            digest.update(repr((name, loaded.shape_ids[name], name in moving)).encode())
+            if name in moving:
+                continue
+            source = loaded.loaded_files.get(name)
+            if source is not None and source[0] != "not-ply":
+                digest.update(Path(source[0]).read_bytes())
+                digest.update(repr(source[2]).encode())
+            else:
+                digest.update(np.ascontiguousarray(loaded.vertices[name]).tobytes())
+                digest.update(np.ascontiguousarray(loaded.faces[name]).tobytes())
+                digest.update(repr(None if source is None else source[1]).encode())
+            digest.update(repr(_material_key(obj.radio_material)).encode())
+        return digest.hexdigest()
 
     # ------------------------------------------------------------------ physical optics
     @property
@@ -811,4 +910,5 @@ class PathEngine(Engine):
         state.pose = key
 
 
-__all__ = ["PROXY_SAGITTA_FRACTION", "PathEngine", "PathEngineError", "check_proxy_resolution"]
+__all__ = ["PROXY_SAGITTA_FRACTION", "PathEngine", "PathEngineError", "check_proxy_resolution", "keep_static_blocks",
+           "static_blocks_kept"]

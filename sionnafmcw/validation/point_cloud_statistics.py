@@ -115,7 +115,10 @@ def recording_statistics(recordings, near_range: float = NEAR_RANGE) -> dict:
     module docstring)."""
     if not isinstance(recordings, (list, tuple)):
         recordings = [recordings]
-    counts = np.concatenate([r.points_per_frame() for r in recordings]) if recordings else np.zeros(0)
+    if not recordings:
+        raise ValueError("recording_statistics: no recordings (an empty list); give one recording or a list of them "
+                         "(a class without recordings has no statistics)")
+    counts = np.concatenate([r.points_per_frame() for r in recordings])
     far = [np.asarray(r.range) >= near_range for r in recordings]
     velocity = np.concatenate([np.asarray(r.velocity)[m] for r, m in zip(recordings, far)])
     intensity = np.concatenate([np.asarray(r.intensity) for r in recordings])

@@ -317,7 +317,7 @@ def statistics_markdown(stats: dict) -> str:
 
 def statistics(synthetic: list, real: list) -> dict:
     """``{"simulated": {class: stats}, "real": {...}, "targets": {class: {...}}}``: the statistics of
-    :mod:`.point_cloud_statistics` per class and the issue's two targets per class (the simulated
+    :mod:`.point_cloud_statistics` per class and the two targets per class (the simulated
     median points per frame inside the real 5-95 % band; zero-velocity shares within 0.1)."""
     from .point_cloud_statistics import recording_statistics
 
