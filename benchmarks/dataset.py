@@ -71,6 +71,38 @@ B, the machine shared with a data-set generation (load average 6-9), 4-frame ite
 (``benchmarks/first_frame.py``: 1-1.5 CPU-s of a 2-frame item's 10-13 CPU-s) are 3-5 % of an item,
 and these pairs do not show them: A's two radhar runs differ by 5 %, B's by 7 %, and B's mean is
 3 % above A's (not resolved at this load). 300-frame items were not run.
+
+Against the frame-cost baseline 96e6099 (A, ``/tmp/fc/treeA``), short and long items of people walking
+circles in a room (``--scenario people --activity walk_circle``: the same room for every item, the
+people drawn per item), RadHAR's ``.cfg`` read by each tree itself (:func:`radar_fields`), one worker,
+2-core AMD EPYC with AVX-512, A then B, each command with ``PYTHONPATH`` set to the tree::
+
+    python benchmarks/dataset.py --scenario people --people 1 --activity walk_circle --items 3 --frames 4 --workers 1
+    python benchmarks/dataset.py --scenario people --people 3 --activity walk_circle --items 3 --frames 4 --workers 1
+    python benchmarks/dataset.py --scenario people --people 1 --activity walk_circle --items 1 --frames 300 --workers 1
+    python benchmarks/dataset.py --scenario people --people 3 --activity walk_circle --separation frames --items 1 \
+        --frames 300 --workers 1
+
+    item                      A 96e6099     B fe1d74b     C c54a091     D 728adc4    CPU-s an item (a frame)
+    1 person, 4 frames        10.65 (2.66)  21.30 (5.32)  20.18 (5.05)   6.86 (1.72)
+    3 people, 4 frames        20.20 (5.05)  30.32 (7.58)  29.92 (7.48)  16.29 (4.07)
+    1 person, 300 frames     477.98 (1.59) 411.15 (1.37)
+    3 people, 300 frames     LONG3A                                     LONG3D
+
+B: main at the start of this measurement: the short items cost twice A's, all of it the first frame
+(``benchmarks/frame_cost.py --profile``: the room's static block, 10 s of which the bounce rule of
+:mod:`sionnafmcw.engines.bounce_sampling` takes 7, which A did not have: the room's corner echoes, 2.5-7.8
+dB low before it). C: the blocked static samples taken from the block where the merge merged nothing (a
+RadHAR item's steady frame 0.86x of B's CPU, the jump scene's 0.95-0.99x). D: the worker process keeps
+the static block of its last item (:func:`sionnafmcw.engines.path.keep_static_blocks`) and ``simulate``
+its cube: every item of this set after the first takes the room's block instead of building it; short
+items cost 0.34x (1 person) and 0.54x (3 people) of C, 0.64x and 0.81x of A; items a minute on
+the two cores 3.3 -> 11.0 (1 person). The first item of a worker builds it (here the warm-up item).
+B's short runs and the 1-person 300-frame runs shared the machine with other work at times (their CPU
+seconds are stretched a little by it); C's and D's short runs did not.
+A spec that draws the room or the radar per item (``radhar_spec``) builds it for every item::
+
+    python benchmarks/dataset.py --scenario radhar --items 3 --frames 4 --workers 1     # D: 28.05 CPU-s an item
 """
 
 from __future__ import annotations
@@ -97,8 +129,8 @@ def make_spec(name, scenario, count, frames, chirps, seed, samples, engine_optio
     """The data-set spec of ``scenario``: ``moving_plate`` and ``straight_walk`` with ``walk-77ghz`` at
     ``chirps`` chirps and ``samples_per_src`` ``samples``; ``radhar`` (one person in a furnished room,
     every range of :func:`~sionnafmcw.dataset.randomisation.radhar_spec` drawn per item) and ``people``
-    (``people`` people doing ``activity`` in a room, kept ``separation`` apart) with the radar of the TI ``.cfg`` ``cfg`` and the engine's
-    defaults."""
+    (``people`` people doing ``activity`` in a room, kept ``separation`` apart) with the radar of the TI
+    ``.cfg`` ``cfg`` and the engine's defaults."""
     if scenario == "radhar":
         from sionnafmcw.dataset.randomisation import radhar_spec
 
@@ -216,7 +248,8 @@ def main(argv=None):
     for r in rows:
         print(f"{r['workers']:>7} {r['cluster_s']:>8.1f} {r['warm_s']:>7.1f} {r['complete']:>6} {r['elapsed_s']:>7.1f} "
               f"{r['items_per_min']:>10.1f} {r['items_per_min'] / base:>6.2f} {r['item_s']:>6.2f} "
-              f"{r['item_cpu_s']:>6.2f} {r['item_cpu_s'] / args.frames:>11.3f} {r['sched_ms']:>9.2f} {r['bytes'] / 1e6:>8.2f}")
+              f"{r['item_cpu_s']:>6.2f} {r['item_cpu_s'] / args.frames:>11.3f} {r['sched_ms']:>9.2f} "
+              f"{r['bytes'] / 1e6:>8.2f}")
     print(f"load average after: {os.getloadavg()[0]:.2f}  (t_1: wall time of one item in a worker; cpu: its "
           "worker's CPU time meanwhile; ratio: items/min against the first row)")
 

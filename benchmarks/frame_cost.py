@@ -170,6 +170,66 @@ today's.
 The exact apertures of plane-faced objects (:mod:`sionnafmcw.engines.flat_faces`) against aa66791 on the
 jump scene (``--tree-a <aa66791> --frames 45 --repeats 1``, beside a test run): time B/A 1.011, CPU B/A
 0.998, every cube bit for bit the same (no object of the scene is plane-faced).
+
+The blocked static samples of a bounce the merge left as it was: ``merge_contributions`` answers a
+``Merged`` whose ``fraction`` is None when no cell size is worth it, and the static block took that for
+merged cells, so every frame computed the blocked samples' contributions again (the PO kernel on a
+selection of the static render) and took them out of one-sample cells, where the block holds them
+already (:meth:`~sionnafmcw.engines.static_scene.StaticPO.frame`). Now such a bounce is held unmerged.
+With the ray index's cones queried at once per group, against fe1d74b (A; B = 728adc4, the kept
+blocks below do not act within one run), 2-core AMD EPYC with AVX-512, quiet::
+
+    python benchmarks/frame_cost.py --tree-a <fe1d74b> --tree-b <728adc4> --frames 45 --repeats 2 --scene <jump>
+    python benchmarks/frame_cost.py --tree-a <fe1d74b> --tree-b <c54a091> --item <run4 item 000020> --sequential 12
+
+    jump scene: CPU B/A 0.968 and 0.932 (wall 0.980, 0.931), every cube bit for bit (error -inf dB)
+    RadHAR item: steady frame engine 0.991 -> 0.850 CPU-s, synthesis 0.554 -> 0.544; frame 0 engine 12.59 -> 11.78
+    jump scene against 96e6099 (``--tree-a /tmp/fc/treeA --tree-b <c54a091> --frames 45 --repeats 1``):
+        CPU B/A 0.649, wall 0.649 (0.94 against 1.44 CPU-s a frame, first frame included)
+
+Where a frame's time goes now (``--profile``: a ``cProfile`` of frame 0 and of frames 1-12, engine and
+synthesis one after the other, the stages of :data:`PROFILE_STAGES`; its overhead is in the figures)::
+
+    python benchmarks/frame_cost.py --tree-a . --only A --scene <jump> --sequential 12 --profile
+    python benchmarks/frame_cost.py --tree-a . --only A --item <run4 item 000020> --sequential 12 --profile
+
+    wall ms                                    jump: frame 0  a later frame   RadHAR item: frame 0  a later frame
+    trace: Sionna's paths                            124        60.7                 188          90.9
+    traced paths to element pairs                     30         7.9                  75          13.9
+    geometry: Sionna's meshes                          0        19.7                   0          23.2
+    PO render: first bounce                          400        85.2                 297          90.7
+    PO render: reflections                           305        66.5                 572          77.3
+    bounce rule (bounds, quarters, joins, channels) 4127         0                  6111           0
+    PO: static samples blocked (cones, casts, ends)   15        13.3                  57          58.7
+    PO integral per element pair                     236        38.1                 459          45.0
+    PO merge's tries                                 229        31.9                 554          36.7
+    synthesis: IF chain's gains                      912        19.3                1038          39.6
+    synthesis: beat sum (finufft)                    761       186.7                1442         295.4
+    other                                           1348        37.0                2289          78.1
+    total                                           8488       567.2               13084         850.5
+
+CPU a frame (the same runs): jump 0.666 engine + 0.351 synthesis; the item 0.915 + 0.548. What is left
+and what would remove it (the beat sum and the PO render are 0.60 of a later frame of the jump scene;
+a quarter of 96e6099's 1.44-1.48 CPU-s a frame is 0.36-0.37 CPU-s, against today's 1.02):
+
+* the beat sum, a third of a later frame: the body's 85-100k PO contributions through twelve 2-D type-3
+  transforms at the noise floor's tolerance. Fewer contributions would remove it: a merge whose bound
+  admits the cells this radar cannot resolve (the bound is 2-10 times the merge error it bounds,
+  ``benchmarks/po_merge.py``; the merge's tries, 6 %, find nothing worth it here), or samples about twice
+  as wide with a footprint integral exact in the quadratic phase;
+* the PO render, a quarter: 159k rays cast for the body's 40k first-bounce samples (its classes' bounding
+  boxes) and the second bounce of every sample onto floor and walls;
+* Sionna's trace, a tenth: the room's candidates every frame for the ~20 paths through the body. Dropping
+  the candidates that touch no moving object before the image method (``PathsBuffer.gather``) gives the
+  same paths bit for bit, but Dr.Jit then compiles other kernels as the kept count changes (6 new kernel
+  hashes in frame 2 of ``tests/test_path_engine.py::test_no_kernel_compiled_after_frame_two``): left;
+* frame 0's bounce rule, 4-6 s (the room's corner apertures, four rounds of quarters over 144-266k
+  tubes): kept across a worker's items where the room repeats
+  (:func:`sionnafmcw.engines.path.keep_static_blocks`, ``benchmarks/dataset.py``). Within one build, a
+  neighbour search kept across rounds is exact only when it asks again every probe a new centre may now
+  be nearest to; a ball of the first round's bound around each new centre finds ~500 probes per centre
+  by the fourth round in the refined bands (14.6 s against 1.6 s for the four full searches, the circle
+  walk's room): a per-probe radius is what that needs.
 """
 
 from __future__ import annotations

@@ -716,9 +716,9 @@ class PathEngine(Engine):
 
     def _static_content(self, radar, pose: RadarPose, moving: frozenset) -> str:
         """A digest of everything the static block is built from (:func:`keep_static_blocks`): engine settings,
-        radar, pose, and per object its name and Mitsuba id, whether it moves and, for a static one, its mesh file's bytes
-        (or the geometry Mitsuba loaded), placement and radio material. Not Sionna's object ids, which each load
-        gives anew (:meth:`_StaticBlock.for_scene` moves a kept block to the new ones)."""
+        radar, pose, and per object its name and Mitsuba id, whether it moves and, for a static one, its mesh
+        file's bytes (or the geometry Mitsuba loaded), placement and radio material. Not Sionna's object ids,
+        which each load gives anew (:meth:`_StaticBlock.for_scene` moves a kept block to the new ones)."""
         import hashlib
         import json
 

@@ -420,10 +420,11 @@ class StaticPO:
         from ``centre`` up to ``depth`` bounces, over the static surfaces alone;
         ``contributions(render)`` gives ``(a, tau, doppler, labels)`` of a render's samples,
         ``merge(render, contributions)`` the :class:`~sionnafmcw.engines.po_merge.Merged` ones or None
-        (no merging; a ``Merged`` that merged nothing, ``fraction`` None, counts as None, so that a frame takes
-        the blocked samples' contributions from the block instead of computing them again); ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`; ``exact_ids``: the
-        objects whose own chains carry no PO here (:meth:`~.po_render.Render.carries_po`: integrated per
-        frame by :mod:`~sionnafmcw.engines.flat_faces`)."""
+        (no merging; a ``Merged`` that merged nothing, ``fraction`` None, counts as None, so that a frame
+        takes the blocked samples' contributions from the block instead of computing them again);
+        ``max_splits``: as :func:`~.bounce_sampling.resolved_bounces`; ``exact_ids``: the objects whose own
+        chains carry no PO here (:meth:`~.po_render.Render.carries_po`: integrated per frame by
+        :mod:`~sionnafmcw.engines.flat_faces`)."""
         from ..echoes import Echoes
         from .bounce_sampling import resolved_bounces
         from .po_render import render
