@@ -75,7 +75,7 @@ and these pairs do not show them: A's two radhar runs differ by 5 %, B's by 7 %,
 Against the frame-cost baseline 96e6099 (A, ``/tmp/fc/treeA``), short and long items of people walking
 circles in a room (``--scenario people --activity walk_circle``: the same room for every item, the
 people drawn per item), RadHAR's ``.cfg`` read by each tree itself (:func:`radar_fields`), one worker,
-2-core AMD EPYC with AVX-512, A then B, each command with ``PYTHONPATH`` set to the tree::
+2-core AMD EPYC with AVX-512, the trees in turn, each command with ``PYTHONPATH`` set to the tree::
 
     python benchmarks/dataset.py --scenario people --people 1 --activity walk_circle --items 3 --frames 4 --workers 1
     python benchmarks/dataset.py --scenario people --people 3 --activity walk_circle --items 3 --frames 4 --workers 1
@@ -87,7 +87,7 @@ people drawn per item), RadHAR's ``.cfg`` read by each tree itself (:func:`radar
     1 person, 4 frames        10.65 (2.66)  21.30 (5.32)  20.18 (5.05)   6.86 (1.72)
     3 people, 4 frames        20.20 (5.05)  30.32 (7.58)  29.92 (7.48)  16.29 (4.07)
     1 person, 300 frames     477.98 (1.59) 411.15 (1.37)
-    3 people, 300 frames     LONG3A                                     LONG3D
+    3 people, 300 frames     (672 s wall)                               1077.51 (3.59), 614 s wall
 
 B: main at the start of this measurement: the short items cost twice A's, all of it the first frame
 (``benchmarks/frame_cost.py --profile``: the room's static block, 10 s of which the bounce rule of
@@ -100,6 +100,10 @@ items cost 0.34x (1 person) and 0.54x (3 people) of C, 0.64x and 0.81x of A; ite
 the two cores 3.3 -> 11.0 (1 person). The first item of a worker builds it (here the warm-up item).
 B's short runs and the 1-person 300-frame runs shared the machine with other work at times (their CPU
 seconds are stretched a little by it); C's and D's short runs did not.
+A's 3-people 300-frame item took 672 s of wall, but the index holds 35 s and 52 CPU-s for it: the time of
+a last attempt that resumed the store, so its worker did not finish the first one (A's CPU a frame is not
+measured; D's 614 s of wall is 0.91 of A's). Long items gain little from the kept block (one first frame in
+300): one person 1.59 (A) and 1.37 (B) CPU-s a frame, three people 3.59 (D).
 A spec that draws the room or the radar per item (``radhar_spec``) builds it for every item::
 
     python benchmarks/dataset.py --scenario radhar --items 3 --frames 4 --workers 1     # D: 28.05 CPU-s an item
