@@ -220,16 +220,18 @@ a quarter of 96e6099's 1.44-1.48 CPU-s a frame is 0.36-0.37 CPU-s, against today
 * the PO render, a quarter: 159k rays cast for the body's 40k first-bounce samples (its classes' bounding
   boxes) and the second bounce of every sample onto floor and walls;
 * Sionna's trace, a tenth: the room's candidates every frame for the ~20 paths through the body. Dropping
-  the candidates that touch no moving object before the image method (``PathsBuffer.gather``) gives the
-  same paths bit for bit, but Dr.Jit then compiles other kernels as the kept count changes (6 new kernel
-  hashes in frame 2 of ``tests/test_path_engine.py::test_no_kernel_compiled_after_frame_two``): left;
+  the candidates that touch no moving object before the image method (``PathsBuffer.gather``) gave the
+  same cubes bit for bit (an ad hoc check, four frames of the RadHAR item), but Dr.Jit then compiles
+  other kernels as the kept count changes (6 new kernel hashes in frame 2 of
+  ``tests/test_path_engine.py::test_no_kernel_compiled_after_frame_two``): left;
 * frame 0's bounce rule, 4-6 s (the room's corner apertures, four rounds of quarters over 144-266k
   tubes): kept across a worker's items where the room repeats
   (:func:`sionnafmcw.engines.path.keep_static_blocks`, ``benchmarks/dataset.py``). Within one build, a
   neighbour search kept across rounds is exact only when it asks again every probe a new centre may now
   be nearest to; a ball of the first round's bound around each new centre finds ~500 probes per centre
-  by the fourth round in the refined bands (14.6 s against 1.6 s for the four full searches, the circle
-  walk's room): a per-probe radius is what that needs.
+  by the fourth round in the refined bands (14.6 s against 1.6 s for the four full searches in the circle
+  walk's room, timed ad hoc; the tables were the full search's in all four rounds): a per-probe radius is
+  what that needs.
 """
 
 from __future__ import annotations
