@@ -93,7 +93,8 @@ B: main at the start of this measurement: the short items cost twice A's, all of
 (``benchmarks/frame_cost.py --profile``: the room's static block, 10 s of which the bounce rule of
 :mod:`sionnafmcw.engines.bounce_sampling` takes 7, which A did not have: the room's corner echoes, 2.5-7.8
 dB low before it). C: the blocked static samples taken from the block where the merge merged nothing (a
-RadHAR item's steady frame 0.86x of B's CPU, the jump scene's 0.95-0.99x). D: the worker process keeps
+RadHAR item's steady frame engine 0.86x of B's CPU, engine and synthesis 0.90x; the jump scene's CPU
+0.93-0.97x). D: the worker process keeps
 the static block of its last item (:func:`sionnafmcw.engines.path.keep_static_blocks`) and ``simulate``
 its cube: every item of this set after the first takes the room's block instead of building it; short
 items cost 0.34x (1 person) and 0.54x (3 people) of C, 0.64x and 0.81x of A; items a minute on

@@ -15,7 +15,7 @@ from sionnafmcw.radar import RadarConfig
 from sionnafmcw.scenes import build
 from sionnafmcw.sionna_rt import INVALID_SHAPE
 
-#: A small TI-like radar (the RadHAR board's chirp, fewer loops): the block is what is tested, not the cube size.
+#: A small cube (walk-77ghz with 8 chirps): the block is what is tested, not the cube size.
 RADAR = RadarConfig.preset("walk-77ghz").replace(num_chirps=8)
 FRAMES = 2
 

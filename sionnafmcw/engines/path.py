@@ -239,7 +239,7 @@ class _StaticBlock:
         if po is not None:
             renders = [replace(r, samples=replace(r.samples, object_id=moved(r.samples.object_id)),
                                one_object=moved(r.one_object)) for r in po.renders]
-            po = replace(po, renders=renders, index=po.index, unmerged=po.unmerged)
+            po = replace(po, renders=renders)   # its ray index and the block views hold no ids: shared
         return replace(self, key=key, paths=paths, po=po, seconds=0.0, object_ids=dict(object_ids))
 
 
